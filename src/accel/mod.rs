@@ -1,0 +1,148 @@
+//! Ray queries: the [`Accelerator`] trait and its backends.
+//!
+//! Every backend answers the same two questions about the same triangles, with
+//! the same meaning, so shading code never knows which one answered:
+//!
+//! - [`Accelerator::intersect`]: the closest hit with `0 < t <= ray.t_max`,
+//!   as a [`Hit`] `{ t, prim, u, v }` where the hit point is
+//!   `(1 - u - v) p0 + u p1 + v p2` of triangle `prim`. Ties in `t` go to the
+//!   lowest primitive index (the naive backend's rule; Embree may differ on a
+//!   shared edge, where both answers are correct).
+//! - [`Accelerator::occluded`]: whether any hit exists in that range.
+//!
+//! Backends: `naive` (brute force over every triangle with the watertight test
+//! of [`triangle`]; the oracle for tests) and `embree` (Intel Embree through
+//! FFI, when built with the `embree` or `embree4` feature).
+
+pub mod naive;
+pub mod triangle;
+
+#[cfg(any(feature = "embree", feature = "embree4"))]
+pub mod embree;
+
+use crate::error::{Error, Result};
+use crate::math::{Ray, Vec3};
+use std::fmt;
+use std::str::FromStr;
+
+/// The closest hit along a ray.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    /// Distance along the ray (the ray's direction is unit length).
+    pub t: f32,
+    /// Index of the triangle hit.
+    pub prim: u32,
+    /// Barycentric weight of the triangle's second vertex.
+    pub u: f32,
+    /// Barycentric weight of the triangle's third vertex.
+    pub v: f32,
+}
+
+/// A structure that answers closest-hit and occlusion queries.
+pub trait Accelerator: Send + Sync {
+    /// The backend's name as `--accel` spells it.
+    fn name(&self) -> &'static str;
+    /// The closest hit with `0 < t <= ray.t_max`, if any.
+    fn intersect(&self, ray: &Ray) -> Option<Hit>;
+    /// Whether any hit exists with `0 < t <= ray.t_max`.
+    fn occluded(&self, ray: &Ray) -> bool;
+}
+
+/// Triangles as every backend receives them: a shared vertex buffer and one
+/// index triple per triangle.
+#[derive(Debug, Clone, Copy)]
+pub struct TriangleSoup<'a> {
+    /// Vertex positions.
+    pub positions: &'a [Vec3],
+    /// Vertex indices of each triangle, counter-clockwise seen from the front.
+    pub indices: &'a [[u32; 3]],
+}
+
+/// Backend choice (`--accel`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Backend {
+    /// Intel Embree.
+    Embree,
+    /// Brute force over all triangles.
+    Naive,
+}
+
+impl Backend {
+    /// Every backend compiled into this binary.
+    pub fn available() -> Vec<Backend> {
+        let mut v = Vec::new();
+        if cfg!(any(feature = "embree", feature = "embree4")) {
+            v.push(Backend::Embree);
+        }
+        v.push(Backend::Naive);
+        v
+    }
+
+    /// The default: Embree when compiled in, otherwise the naive backend.
+    pub fn default_backend() -> Backend {
+        Backend::available()[0]
+    }
+
+    /// The name `--accel` uses.
+    pub fn name(self) -> &'static str {
+        match self {
+            Backend::Embree => "embree",
+            Backend::Naive => "naive",
+        }
+    }
+}
+
+impl fmt::Display for Backend {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Backend {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "embree" => Ok(Backend::Embree),
+            "naive" => Ok(Backend::Naive),
+            _ => Err(format!("unknown backend `{s}` (expected embree or naive)")),
+        }
+    }
+}
+
+/// Options that shape how a backend is built.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AccelOptions {
+    /// Embree's robust (watertight) mode, `RTC_SCENE_FLAG_ROBUST`. On by default.
+    pub robust: bool,
+}
+
+impl Default for AccelOptions {
+    fn default() -> Self {
+        AccelOptions { robust: true }
+    }
+}
+
+/// Build the chosen backend over `soup`.
+pub fn build(
+    backend: Backend,
+    soup: TriangleSoup<'_>,
+    options: AccelOptions,
+) -> Result<Box<dyn Accelerator>> {
+    match backend {
+        Backend::Naive => Ok(Box::new(naive::Naive::new(soup))),
+        Backend::Embree => build_embree(soup, options),
+    }
+}
+
+#[cfg(any(feature = "embree", feature = "embree4"))]
+fn build_embree(soup: TriangleSoup<'_>, options: AccelOptions) -> Result<Box<dyn Accelerator>> {
+    Ok(Box::new(embree::EmbreeAccel::new(soup, options)?))
+}
+
+#[cfg(not(any(feature = "embree", feature = "embree4")))]
+fn build_embree(_: TriangleSoup<'_>, _: AccelOptions) -> Result<Box<dyn Accelerator>> {
+    Err(Error::Settings(
+        "this binary was built without Embree (--no-default-features); use --accel naive"
+            .to_string(),
+    ))
+}

@@ -1,0 +1,319 @@
+//! Geometry shared by every module: glam re-exports, [`Ray`], the shading
+//! [`Frame`], and the one self-intersection policy ([`offset_ray_origin`],
+//! [`spawn_ray`], [`spawn_ray_to`]). No other module offsets a ray.
+//!
+//! The offset policy follows pbrt-v4 (Pharr, Jakob, Humphreys, *Physically
+//! Based Rendering*, 4th ed., section 6.8.6, "Robust Spawned Ray Origins"):
+//! a hit point is rebuilt from barycentrics and the vertex buffer, its absolute
+//! floating-point error is bounded (`gamma(7) * sum |b_i p_i|`, section 6.8.5),
+//! and a spawned ray starts just outside that error box along the geometric
+//! normal, rounded one ulp further away. The bias this introduces is the
+//! offset itself: surfaces closer than [`min_gap`] to the origin surface can
+//! be skipped.
+
+pub use glam::{DVec3, Vec2, Vec3};
+
+/// A ray `o + t d` for `t` in `[0, t_max]`. `d` is unit length unless stated
+/// otherwise, so `t` is a distance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ray {
+    /// Origin.
+    pub o: Vec3,
+    /// Direction.
+    pub d: Vec3,
+    /// Largest accepted hit distance.
+    pub t_max: f32,
+}
+
+impl Ray {
+    /// A ray with an unbounded extent.
+    pub fn new(o: Vec3, d: Vec3) -> Self {
+        Ray {
+            o,
+            d,
+            t_max: f32::INFINITY,
+        }
+    }
+
+    /// The point at parameter `t` (for display and tests; hit points are rebuilt
+    /// from barycentrics instead).
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.o + t * self.d
+    }
+
+    /// True when origin, direction and extent are all usable by a backend.
+    pub fn is_finite(&self) -> bool {
+        self.o.is_finite() && self.d.is_finite() && !self.t_max.is_nan() && self.t_max >= 0.0
+    }
+}
+
+/// `gamma(n) = n eps / (1 - n eps)` with `eps` half an ulp of 1 (Higham's
+/// bound on the relative error of `n` floating-point operations).
+pub fn gamma(n: i32) -> f32 {
+    let e = f32::EPSILON * 0.5 * n as f32;
+    e / (1.0 - e)
+}
+
+/// The next representable `f32` above `x` (infinity stays infinity).
+pub fn next_float_up(x: f32) -> f32 {
+    if x.is_infinite() && x > 0.0 {
+        return x;
+    }
+    let x = if x == -0.0 { 0.0 } else { x };
+    let bits = x.to_bits();
+    let bits = if x >= 0.0 { bits + 1 } else { bits - 1 };
+    f32::from_bits(bits)
+}
+
+/// The next representable `f32` below `x`.
+pub fn next_float_down(x: f32) -> f32 {
+    -next_float_up(-x)
+}
+
+/// An orthonormal basis around a unit normal `n` (Duff et al., "Building an
+/// Orthonormal Basis, Revisited", JCGT 2017): continuous except at `n.z = -0`,
+/// exact for `n.z = -1`, no branches on a threshold.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Frame {
+    /// First tangent.
+    pub s: Vec3,
+    /// Second tangent.
+    pub t: Vec3,
+    /// The normal.
+    pub n: Vec3,
+}
+
+impl Frame {
+    /// The frame whose third axis is `n` (unit length).
+    pub fn from_normal(n: Vec3) -> Self {
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        let s = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+        let t = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+        Frame { s, t, n }
+    }
+
+    /// World direction to local coordinates (normal = +z).
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+
+    /// Local coordinates to a world direction.
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.s * v.x + self.t * v.y + self.n * v.z
+    }
+}
+
+/// The unit geometric normal of a triangle, `normalize((p1 - p0) x (p2 - p0))`,
+/// or `None` for a degenerate triangle. Needle triangles, whose cross product
+/// cancels catastrophically in `f32`, are recomputed in `f64`.
+pub fn triangle_normal(p0: Vec3, p1: Vec3, p2: Vec3) -> Option<Vec3> {
+    let e1 = p1 - p0;
+    let e2 = p2 - p0;
+    let n = e1.cross(e2);
+    let len = n.length();
+    let scale = e1.length() * e2.length();
+    if len.is_finite() && scale.is_finite() && len > 1e-4 * scale && len > 0.0 {
+        return Some(n / len);
+    }
+    // sin(angle between the edges) < 1e-4, or overflow/underflow: redo in f64.
+    let (d0, d1, d2) = (p0.as_dvec3(), p1.as_dvec3(), p2.as_dvec3());
+    let n = (d1 - d0).cross(d2 - d0);
+    let len = n.length();
+    if len.is_finite() && len > 0.0 {
+        let n = (n / len).as_vec3();
+        n.is_finite().then_some(n)
+    } else {
+        None
+    }
+}
+
+/// A surface point as the self-intersection policy sees it: the position, a
+/// bound on its absolute error per axis, and the unit geometric normal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfacePoint {
+    /// Position rebuilt from barycentrics.
+    pub p: Vec3,
+    /// Absolute error bound of `p`, per axis.
+    pub p_err: Vec3,
+    /// Unit geometric normal.
+    pub n: Vec3,
+}
+
+impl SurfacePoint {
+    /// The point with barycentrics `(1 - u - v, u, v)` on triangle `(p0, p1, p2)`,
+    /// with pbrt-v4's error bound for it.
+    pub fn on_triangle(p: [Vec3; 3], u: f32, v: f32, n: Vec3) -> Self {
+        let b0 = 1.0 - u - v;
+        let pos = b0 * p[0] + u * p[1] + v * p[2];
+        let p_err = gamma(7) * ((b0 * p[0]).abs() + (u * p[1]).abs() + (v * p[2]).abs());
+        SurfacePoint { p: pos, p_err, n }
+    }
+}
+
+/// The origin for a ray leaving `sp` in direction `w`: pushed along the
+/// geometric normal, to the side `w` points to, just past the error box of the
+/// point, then rounded one ulp further out.
+pub fn offset_ray_origin(sp: &SurfacePoint, w: Vec3) -> Vec3 {
+    let d = sp.n.abs().dot(sp.p_err);
+    let mut offset = d * sp.n;
+    if w.dot(sp.n) < 0.0 {
+        offset = -offset;
+    }
+    let mut po = sp.p + offset;
+    for i in 0..3 {
+        if offset[i] > 0.0 {
+            po[i] = next_float_up(po[i]);
+        } else if offset[i] < 0.0 {
+            po[i] = next_float_down(po[i]);
+        }
+    }
+    po
+}
+
+/// A ray leaving surface point `sp` in unit direction `d`.
+pub fn spawn_ray(sp: &SurfacePoint, d: Vec3) -> Ray {
+    Ray::new(offset_ray_origin(sp, d), d)
+}
+
+/// A shadow ray from `from` to `to` (both surface points): both ends are
+/// offset off their surfaces, so neither surface can be hit, and the extent
+/// stops short of the offset target by a relative bound on the error of the
+/// distance computation (`gamma(3)`), not a fixed epsilon. The direction is
+/// unit length and `t_max` is a distance.
+pub fn spawn_ray_to(from: &SurfacePoint, to: &SurfacePoint) -> Ray {
+    let pf = offset_ray_origin(from, to.p - from.p);
+    let pt = offset_ray_origin(to, pf - to.p);
+    let delta = pt - pf;
+    let dist = delta.length();
+    if !(dist > 0.0) || !dist.is_finite() {
+        return Ray {
+            o: pf,
+            d: from.n,
+            t_max: 0.0,
+        };
+    }
+    Ray {
+        o: pf,
+        d: delta / dist,
+        t_max: dist * (1.0 - gamma(3)),
+    }
+}
+
+/// A shadow ray from `from` towards a point at infinity in unit direction `d`
+/// (environment light samples).
+pub fn spawn_ray_towards(from: &SurfacePoint, d: Vec3) -> Ray {
+    spawn_ray(from, d)
+}
+
+/// Smallest gap between two parallel surfaces, at coordinates of magnitude
+/// `scale`, that a spawned ray never skips: the offset is at most
+/// `gamma(7) * 3 * scale * sqrt(3)` plus two ulps (the error box projected on
+/// the normal, then rounded out). Two surfaces farther apart than this are
+/// always resolved.
+pub fn min_gap(scale: f32) -> f32 {
+    let ulp = f32::EPSILON * scale.abs().max(f32::MIN_POSITIVE);
+    gamma(7) * 3.0 * scale.abs() * 3.0f32.sqrt() + 2.0 * ulp
+}
+
+/// Linear-RGB luminance (Rec. 709 primaries).
+pub fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check_frame(n: Vec3) {
+        let f = Frame::from_normal(n);
+        for (a, b) in [(f.s, f.t), (f.s, f.n), (f.t, f.n)] {
+            assert!(a.as_dvec3().dot(b.as_dvec3()).abs() < 1e-6, "{n:?}: not orthogonal");
+        }
+        for v in [f.s, f.t, f.n] {
+            assert!(((v.as_dvec3().length()) - 1.0).abs() < 1e-6, "{n:?}: not unit");
+            assert!(v.is_finite());
+        }
+        // right-handed: s x t = n
+        assert!((f.s.cross(f.t) - f.n).length() < 1e-5, "{n:?}: left-handed");
+        let w = Vec3::new(0.3, -0.5, 0.81).normalize();
+        assert!((f.to_world(f.to_local(w)) - w).length() < 1e-6);
+    }
+
+    #[test]
+    fn frames_at_singular_normals() {
+        for n in [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z] {
+            check_frame(n);
+        }
+        check_frame(Vec3::new(0.0, 0.0, -1.0));
+        check_frame(Vec3::new(1e-8, 0.0, -1.0).normalize());
+        let mut s = 1u64;
+        for _ in 0..10_000 {
+            let mut r = || {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                ((s >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+            };
+            let v = Vec3::new(r(), r(), r());
+            if v.length() > 1e-3 {
+                check_frame(v.normalize());
+            }
+        }
+    }
+
+    #[test]
+    fn next_float_steps_one_ulp() {
+        assert_eq!(next_float_up(1.0), 1.0 + f32::EPSILON);
+        assert_eq!(next_float_down(1.0), 1.0 - f32::EPSILON / 2.0);
+        assert_eq!(next_float_up(-0.0), f32::from_bits(1));
+        assert_eq!(next_float_up(0.0), f32::from_bits(1));
+        assert_eq!(next_float_down(0.0), -f32::from_bits(1));
+        assert_eq!(next_float_up(f32::INFINITY), f32::INFINITY);
+    }
+
+    #[test]
+    fn needle_normal_uses_f64() {
+        let n = triangle_normal(
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.5, 1e-7, 0.0),
+        )
+        .expect("needle has area");
+        assert!((n - Vec3::Z).length() < 1e-6, "{n:?}");
+        assert!(triangle_normal(Vec3::ZERO, Vec3::X, 2.0 * Vec3::X).is_none());
+        assert!(triangle_normal(Vec3::ZERO, Vec3::ZERO, Vec3::Y).is_none());
+    }
+
+    #[test]
+    fn spawned_rays_leave_the_error_box() {
+        let tri = [
+            Vec3::new(1e4, 1e4, 1e4),
+            Vec3::new(1e4 + 1.0, 1e4, 1e4),
+            Vec3::new(1e4, 1e4 + 1.0, 1e4),
+        ];
+        let sp = SurfacePoint::on_triangle(tri, 0.3, 0.3, Vec3::Z);
+        let up = offset_ray_origin(&sp, Vec3::Z);
+        let down = offset_ray_origin(&sp, -Vec3::Z);
+        assert!(up.z - sp.p.z > sp.p_err.z, "up offset too small");
+        assert!(sp.p.z - down.z > sp.p_err.z, "down offset too small");
+        assert!(up.z - 1e4 <= min_gap(1e4 + 1.0));
+    }
+
+    #[test]
+    fn shadow_ray_stops_short_of_target() {
+        let a = SurfacePoint {
+            p: Vec3::ZERO,
+            p_err: Vec3::splat(1e-7),
+            n: Vec3::Z,
+        };
+        let b = SurfacePoint {
+            p: Vec3::new(0.0, 0.0, 2.0),
+            p_err: Vec3::splat(1e-7),
+            n: -Vec3::Z,
+        };
+        let r = spawn_ray_to(&a, &b);
+        assert!(r.o.z > 0.0);
+        assert!(r.at(r.t_max).z < 2.0);
+        assert!((r.d - Vec3::Z).length() < 1e-6);
+    }
+}
