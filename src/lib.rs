@@ -11,3 +11,13 @@ pub mod error;
 pub mod math;
 
 pub use error::{Error, Result};
+pub mod sampler;
+pub mod sampling;
+pub mod scene;
+pub mod bsdf;
+pub mod camera;
+pub mod integrator;
+pub mod light;
+pub mod render;
+pub mod report;
+pub mod film;

@@ -1,1 +1,259 @@
-fn main() {}
+//! The `embertrace` command line: parse flags, call the library, print.
+
+use clap::{Args, Parser, Subcommand};
+use embertrace::accel::{self, AccelOptions, Backend};
+use embertrace::camera::Camera;
+use embertrace::error::{Error, Result};
+use embertrace::film::{self, OutputOptions};
+use embertrace::integrator::{DirectStrategy, IntegratorSettings, PathTracer, Roulette};
+use embertrace::render::{self, RenderSettings};
+use embertrace::report::RenderReport;
+use embertrace::scene::{MAX_PIXELS, MAX_RESOLUTION, Scene};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+#[derive(Parser)]
+#[command(
+    name = "embertrace",
+    version,
+    about = "A physically based path tracer (Embree or brute force for ray queries).",
+    after_help = "The classic form `embertrace -t 8 -s 64 -l 16 -m 5 -r 480 360 -f out.png SCENE` means `embertrace render ...`."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene (.toml or .obj) to an image.
+    Render(RenderArgs),
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    /// Scene file: .toml, or a bare .obj (framed automatically).
+    scene: PathBuf,
+    /// Output image; the extension picks the format (.png, .exr, .pfm).
+    #[arg(short = 'o', long = "output", visible_short_alias = 'f')]
+    output: Option<PathBuf>,
+    /// Samples per pixel [scene default, else 64].
+    #[arg(short = 's', long = "spp")]
+    spp: Option<u32>,
+    /// Light samples per shading point [scene default, else 1].
+    #[arg(short = 'l', long = "light-samples")]
+    light_samples: Option<u32>,
+    /// Maximum bounces: 0 = emission only, 1 = direct only [scene default, else 64].
+    #[arg(short = 'm', long = "max-depth")]
+    max_depth: Option<u32>,
+    /// Resolution: width height [scene default].
+    #[arg(short = 'r', long = "resolution", num_args = 2, value_names = ["W", "H"])]
+    resolution: Option<Vec<u32>>,
+    /// Render threads; 0 = all cores.
+    #[arg(short = 't', long = "threads", default_value_t = 0)]
+    threads: usize,
+    /// Random seed [scene default, else 0].
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Ray-query backend: embree or naive [embree when compiled in].
+    #[arg(long)]
+    accel: Option<Backend>,
+    /// Direct lighting: mis, light or bsdf.
+    #[arg(long, default_value = "mis")]
+    direct: DirectStrategy,
+    /// Fixed Russian-roulette continuation probability in [0, 1]
+    /// [default: throughput-based].
+    #[arg(long = "rr", value_name = "P")]
+    rr: Option<f32>,
+    /// First bounce at which Russian roulette may end a path.
+    #[arg(long = "rr-depth", default_value_t = 3)]
+    rr_depth: u32,
+    /// Write a JSON report of the run.
+    #[arg(long, value_name = "FILE")]
+    report: Option<PathBuf>,
+    /// Exposure in stops, applied to PNG output.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    /// Turn off Embree's robust (watertight) mode.
+    #[arg(long)]
+    no_robust: bool,
+    /// Tile side in pixels.
+    #[arg(long, default_value_t = 16)]
+    tile_size: u32,
+    /// Fail (non-zero exit, no image) if any sample is NaN, infinite or negative.
+    #[arg(long)]
+    strict: bool,
+    /// Print nothing but errors.
+    #[arg(short = 'q', long)]
+    quiet: bool,
+}
+
+/// Words that start the subcommand form; anything else is the classic form.
+const SUBCOMMANDS: &[&str] = &["render", "help", "-h", "--help", "-V", "--version"];
+
+fn main() -> ExitCode {
+    let mut argv: Vec<String> = std::env::args().collect();
+    if argv.len() > 1 && !SUBCOMMANDS.contains(&argv[1].as_str()) {
+        argv.insert(1, "render".to_string());
+    }
+    let cli = Cli::parse_from(argv);
+    let result = match cli.command {
+        Command::Render(args) => run_render(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("embertrace: error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run_render(args: RenderArgs) -> Result<()> {
+    let output = args.output.clone().unwrap_or_else(|| {
+        let stem = args.scene.file_stem().unwrap_or_default().to_string_lossy();
+        PathBuf::from(format!("{stem}.png"))
+    });
+    film::check_output_path(&output)?;
+    if let Some(r) = &args.report {
+        embertrace::report::check_report_path(r)?;
+    }
+    if let Some(p) = args.rr {
+        if !(0.0..=1.0).contains(&p) {
+            return Err(Error::Settings(format!(
+                "--rr {p}: expected a probability in [0, 1]"
+            )));
+        }
+    }
+    let say = |msg: &str| {
+        if !args.quiet {
+            eprintln!("{msg}");
+        }
+    };
+
+    let t0 = Instant::now();
+    let scene = Scene::load(&args.scene)?;
+    let load_seconds = t0.elapsed().as_secs_f64();
+    for note in &scene.notes {
+        say(&format!("note: {note}"));
+    }
+
+    let resolution = match &args.resolution {
+        Some(r) => [r[0], r[1]],
+        None => scene.resolution,
+    };
+    let [w, h] = resolution;
+    if w == 0
+        || h == 0
+        || w > MAX_RESOLUTION
+        || h > MAX_RESOLUTION
+        || w as u64 * h as u64 > MAX_PIXELS
+    {
+        return Err(Error::Settings(format!(
+            "resolution {w} x {h} out of range (each side 1..={MAX_RESOLUTION}, at most {MAX_PIXELS} pixels)"
+        )));
+    }
+    let spp = args.spp.unwrap_or(scene.render.spp);
+    if spp == 0 {
+        return Err(Error::Settings(
+            "-s 0: expected at least one sample per pixel".into(),
+        ));
+    }
+    let seed = args.seed.unwrap_or(scene.render.seed);
+    let integrator = IntegratorSettings {
+        max_depth: args.max_depth.unwrap_or(scene.render.max_depth),
+        light_samples: args
+            .light_samples
+            .unwrap_or(scene.render.light_samples)
+            .max(1),
+        direct: args.direct,
+        roulette: args.rr.map_or(Roulette::Throughput, Roulette::Fixed),
+        rr_depth: args.rr_depth,
+    };
+    let backend = args.accel.unwrap_or_else(Backend::default_backend);
+
+    let t1 = Instant::now();
+    let accel = accel::build(
+        backend,
+        scene.soup(),
+        AccelOptions {
+            robust: !args.no_robust,
+        },
+    )?;
+    let accel_build_seconds = t1.elapsed().as_secs_f64();
+
+    let camera = Camera::new(&scene.camera, w, h);
+    let tracer = PathTracer::new(&scene, accel.as_ref(), integrator);
+    let settings = RenderSettings {
+        resolution,
+        spp,
+        first_sample: 0,
+        seed,
+        threads: args.threads,
+        tile_size: args.tile_size,
+    };
+    let tiles =
+        (w.div_ceil(settings.tile_size.max(1)) * h.div_ceil(settings.tile_size.max(1))) as u64;
+    let bar = if std::io::stderr().is_terminal() && !args.quiet {
+        let b = ProgressBar::new(tiles);
+        if let Ok(style) =
+            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent}% eta {eta}")
+        {
+            b.set_style(style.progress_chars("=> "));
+        }
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    say(&format!(
+        "rendering {} ({} triangles) at {w}x{h}, {spp} spp, max depth {}, backend {backend}",
+        args.scene.display(),
+        scene.triangle_count(),
+        integrator.max_depth
+    ));
+    let out = render::render(&tracer, &camera, &settings, &|| bar.inc(1))?;
+    bar.finish_and_clear();
+
+    let report = RenderReport::new(
+        &args.scene,
+        backend.name(),
+        &settings,
+        &integrator,
+        load_seconds,
+        accel_build_seconds,
+        &out,
+        &output,
+    );
+    if out.nonfinite.count > 0 {
+        say(&format!(
+            "warning: {} NaN, infinite or negative samples left out (first at pixel {:?})",
+            out.nonfinite.count, out.nonfinite.pixels[0]
+        ));
+        if args.strict {
+            return Err(Error::Strict(format!(
+                "--strict: {} NaN, infinite or negative samples; no image written",
+                out.nonfinite.count
+            )));
+        }
+    }
+    let options = OutputOptions {
+        exposure: args.exposure,
+        metadata: report.metadata(),
+    };
+    film::write_image(&output, &out.film, &options)?;
+    if let Some(path) = &args.report {
+        film::write_file_atomically(path, report.to_json().as_bytes())?;
+    }
+    say(&format!(
+        "wrote {}: {:.2} s, {} rays, {:.2} Mrays/s, {:.3} Mpaths/s",
+        output.display(),
+        out.seconds,
+        out.rays.total(),
+        report.mrays_per_second,
+        report.mpaths_per_second
+    ));
+    Ok(())
+}

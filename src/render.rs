@@ -1,0 +1,155 @@
+//! The parallel render loop: rayon over tiles, every sample seeded by
+//! (seed, pixel, sample index), tiles merged into the film in a fixed order,
+//! so the image is bit-identical for any thread count.
+//!
+//! Non-finite and negative samples are not silently zeroed: each is counted,
+//! its pixel recorded, and it is left out of that pixel's accumulation.
+
+use crate::camera::Camera;
+use crate::error::{Error, Result};
+use crate::film::{Film, Tile};
+use crate::integrator::{PathTracer, RayCounts};
+use crate::math::Vec2;
+use crate::sampler::Sampler;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// How many offending pixels a report keeps.
+pub const NONFINITE_PIXELS_KEPT: usize = 16;
+
+/// What the render loop needs besides the scene and estimator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RenderSettings {
+    /// Image width and height.
+    pub resolution: [u32; 2],
+    /// Samples per pixel in this call.
+    pub spp: u32,
+    /// Index of the first sample (progressive passes continue the sequence).
+    pub first_sample: u32,
+    /// Random seed.
+    pub seed: u64,
+    /// Worker threads; 0 = all cores.
+    pub threads: usize,
+    /// Tile side in pixels.
+    pub tile_size: u32,
+}
+
+/// Samples that were NaN, infinite or negative, and where.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct NonFiniteReport {
+    /// How many samples were rejected.
+    pub count: u64,
+    /// The first few pixels (in tile order) where it happened.
+    pub pixels: Vec<[u32; 2]>,
+}
+
+impl NonFiniteReport {
+    fn merge(&mut self, other: &NonFiniteReport) {
+        self.count += other.count;
+        for &p in &other.pixels {
+            if self.pixels.len() < NONFINITE_PIXELS_KEPT {
+                self.pixels.push(p);
+            }
+        }
+    }
+}
+
+/// A finished render.
+#[derive(Debug)]
+pub struct RenderOutput {
+    /// The accumulated film.
+    pub film: Film,
+    /// Rays traced, by kind.
+    pub rays: RayCounts,
+    /// Rejected samples.
+    pub nonfinite: NonFiniteReport,
+    /// Wall-clock seconds spent rendering.
+    pub seconds: f64,
+    /// Threads actually used.
+    pub threads: usize,
+}
+
+struct TileResult {
+    tile: Tile,
+    rays: RayCounts,
+    nonfinite: NonFiniteReport,
+}
+
+/// Render `settings.spp` samples per pixel into a new film. `on_tile` is called
+/// after each finished tile (for progress bars).
+pub fn render(
+    tracer: &PathTracer<'_>,
+    camera: &Camera,
+    settings: &RenderSettings,
+    on_tile: &(dyn Fn() + Sync),
+) -> Result<RenderOutput> {
+    let [w, h] = settings.resolution;
+    let mut film = Film::new(w, h);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(settings.threads)
+        .build()
+        .map_err(|e| Error::Settings(format!("cannot start {} threads: {e}", settings.threads)))?;
+    let threads = pool.current_num_threads();
+    let start = Instant::now();
+    let bounds = film.tiles(settings.tile_size.max(1));
+    let results: Vec<TileResult> = pool.install(|| {
+        bounds
+            .par_iter()
+            .map(|b| {
+                let r = render_tile(tracer, camera, settings, Tile::new(*b));
+                on_tile();
+                r
+            })
+            .collect()
+    });
+    let mut rays = RayCounts::default();
+    let mut nonfinite = NonFiniteReport::default();
+    for r in &results {
+        film.merge_tile(&r.tile);
+        rays.add(&r.rays);
+        nonfinite.merge(&r.nonfinite);
+    }
+    Ok(RenderOutput {
+        film,
+        rays,
+        nonfinite,
+        seconds: start.elapsed().as_secs_f64(),
+        threads,
+    })
+}
+
+fn render_tile(
+    tracer: &PathTracer<'_>,
+    camera: &Camera,
+    settings: &RenderSettings,
+    mut tile: Tile,
+) -> TileResult {
+    let mut rays = RayCounts::default();
+    let mut nonfinite = NonFiniteReport::default();
+    let b = tile.bounds();
+    let width = settings.resolution[0] as u64;
+    for y in b.y0..b.y0 + b.height {
+        for x in b.x0..b.x0 + b.width {
+            let pixel = y as u64 * width + x as u64;
+            for s in settings.first_sample..settings.first_sample + settings.spp {
+                let mut sampler = Sampler::new(settings.seed, pixel, s as u64);
+                let jitter = sampler.next_2d();
+                let ray = camera.generate_ray(Vec2::new(x as f32, y as f32) + jitter);
+                let l = tracer.li(&ray, &mut sampler, &mut rays);
+                if l.is_finite() && l.min_element() >= 0.0 {
+                    tile.add_sample(x, y, l);
+                } else {
+                    nonfinite.count += 1;
+                    if nonfinite.pixels.len() < NONFINITE_PIXELS_KEPT {
+                        nonfinite.pixels.push([x, y]);
+                    }
+                }
+            }
+        }
+    }
+    TileResult {
+        tile,
+        rays,
+        nonfinite,
+    }
+}

@@ -1,0 +1,166 @@
+//! The JSON run report (`--report run.json`) and the image metadata derived
+//! from it. Field names are fixed: other scripts read them.
+
+use crate::error::{Error, Result};
+use crate::integrator::{IntegratorSettings, Roulette};
+use crate::render::{RenderOutput, RenderSettings};
+use serde::Serialize;
+use std::path::Path;
+
+/// Rays by kind.
+#[derive(Debug, Clone, Serialize)]
+pub struct RaysReport {
+    /// Primary rays.
+    pub camera: u64,
+    /// Continuation rays.
+    pub extension: u64,
+    /// Shadow rays.
+    pub shadow: u64,
+    /// Their sum.
+    pub total: u64,
+}
+
+/// Rejected (NaN, infinite, negative) samples.
+#[derive(Debug, Clone, Serialize)]
+pub struct NonFinitePixels {
+    /// The first few pixels, `[x, y]`.
+    pub first_pixels: Vec<[u32; 2]>,
+}
+
+/// Everything `--report` writes.
+#[derive(Debug, Clone, Serialize)]
+pub struct RenderReport {
+    /// Scene file.
+    pub scene: String,
+    /// Output image.
+    pub output: String,
+    /// Backend name.
+    pub backend: String,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Maximum bounces.
+    pub max_depth: u32,
+    /// Light samples per shading point.
+    pub light_samples: u32,
+    /// Direct-lighting strategy.
+    pub direct: String,
+    /// Russian roulette: "throughput" or the fixed probability.
+    pub russian_roulette: String,
+    /// First bounce with roulette.
+    pub rr_depth: u32,
+    /// `[width, height]`.
+    pub resolution: [u32; 2],
+    /// Seed.
+    pub seed: u64,
+    /// Threads used.
+    pub threads: usize,
+    /// Seconds spent loading the scene.
+    pub load_seconds: f64,
+    /// Seconds spent building the acceleration structure.
+    pub accel_build_seconds: f64,
+    /// Seconds spent rendering.
+    pub render_seconds: f64,
+    /// Rays by kind.
+    pub rays: RaysReport,
+    /// Millions of rays per second of render time.
+    pub mrays_per_second: f64,
+    /// Millions of paths (camera samples) per second of render time.
+    pub mpaths_per_second: f64,
+    /// Samples rejected for being NaN, infinite or negative.
+    pub nonfinite_samples: u64,
+    /// Where they were.
+    pub nonfinite: NonFinitePixels,
+    /// Mean linear RGB over the image.
+    pub mean_rgb: [f64; 3],
+}
+
+impl RenderReport {
+    /// Assemble the report of a finished render.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        scene: &Path,
+        backend: &str,
+        settings: &RenderSettings,
+        integrator: &IntegratorSettings,
+        load_seconds: f64,
+        accel_build_seconds: f64,
+        out: &RenderOutput,
+        output: &Path,
+    ) -> Self {
+        let per_second = |n: u64| {
+            if out.seconds > 0.0 {
+                n as f64 / out.seconds / 1e6
+            } else {
+                0.0
+            }
+        };
+        RenderReport {
+            scene: scene.display().to_string(),
+            output: output.display().to_string(),
+            backend: backend.to_string(),
+            spp: settings.spp,
+            max_depth: integrator.max_depth,
+            light_samples: integrator.light_samples,
+            direct: integrator.direct.to_string(),
+            russian_roulette: match integrator.roulette {
+                Roulette::Throughput => "throughput".to_string(),
+                Roulette::Fixed(p) => p.to_string(),
+            },
+            rr_depth: integrator.rr_depth,
+            resolution: settings.resolution,
+            seed: settings.seed,
+            threads: out.threads,
+            load_seconds,
+            accel_build_seconds,
+            render_seconds: out.seconds,
+            rays: RaysReport {
+                camera: out.rays.camera,
+                extension: out.rays.extension,
+                shadow: out.rays.shadow,
+                total: out.rays.total(),
+            },
+            mrays_per_second: per_second(out.rays.total()),
+            mpaths_per_second: per_second(out.rays.camera),
+            nonfinite_samples: out.nonfinite.count,
+            nonfinite: NonFinitePixels {
+                first_pixels: out.nonfinite.pixels.clone(),
+            },
+            mean_rgb: out.film.mean_rgb(),
+        }
+    }
+
+    /// Pretty JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a report of plain numbers and strings serialises") + "\n"
+    }
+
+    /// Key/value pairs for image metadata (EXR header attributes).
+    pub fn metadata(&self) -> Vec<(String, String)> {
+        vec![
+            ("embertrace.spp".into(), self.spp.to_string()),
+            ("embertrace.seed".into(), self.seed.to_string()),
+            ("embertrace.backend".into(), self.backend.clone()),
+            ("embertrace.render_seconds".into(), format!("{:.6}", self.render_seconds)),
+            ("embertrace.max_depth".into(), self.max_depth.to_string()),
+            ("embertrace.direct".into(), self.direct.clone()),
+            ("embertrace.scene".into(), self.scene.clone()),
+            ("embertrace.version".into(), env!("CARGO_PKG_VERSION").to_string()),
+        ]
+    }
+}
+
+/// Fail early if a report could not be written to `path`.
+pub fn check_report_path(path: &Path) -> Result<()> {
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    if !parent.is_dir() {
+        return Err(Error::Settings(format!(
+            "{}: directory {} does not exist",
+            path.display(),
+            parent.display()
+        )));
+    }
+    if path.is_dir() {
+        return Err(Error::Settings(format!("{}: is a directory, expected a file", path.display())));
+    }
+    Ok(())
+}

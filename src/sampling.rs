@@ -1,0 +1,201 @@
+//! Pure sample warps: each `square_to_x(u)` maps uniform numbers in `[0, 1)^n`
+//! to a distribution and is paired with `square_to_x_pdf(..)`. No random
+//! number generator lives here (pbrt-v4, section A.5 and chapter 2; Shirley
+//! and Chiu's concentric map for the disk).
+
+use crate::math::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};
+
+/// Concentric map of the unit square to the unit disk (Shirley and Chiu 1997).
+pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, FRAC_PI_4 * (o.y / o.x))
+    } else {
+        (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
+    };
+    r * Vec2::new(theta.cos(), theta.sin())
+}
+
+/// Density of [`square_to_concentric_disk`] with respect to area.
+pub fn square_to_concentric_disk_pdf(p: Vec2) -> f32 {
+    if p.length_squared() <= 1.0 { FRAC_1_PI } else { 0.0 }
+}
+
+/// Cosine-weighted direction on the hemisphere around +z (Malley's method).
+/// The result has `z >= 0`; `z == 0` only on the disk's rim, where the pdf is 0
+/// and callers must reject the sample.
+pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = square_to_concentric_disk(u);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+/// Density of [`square_to_cosine_hemisphere`] with respect to solid angle: `cos / pi`.
+pub fn square_to_cosine_hemisphere_pdf(w: Vec3) -> f32 {
+    if w.z > 0.0 { w.z * FRAC_1_PI } else { 0.0 }
+}
+
+/// Uniform direction on the unit sphere.
+pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Density of [`square_to_uniform_sphere`]: `1 / (4 pi)`.
+pub fn square_to_uniform_sphere_pdf(_w: Vec3) -> f32 {
+    0.25 * FRAC_1_PI
+}
+
+/// Barycentrics `(b1, b2)` of a uniform point on a triangle (the square-root
+/// parameterisation, pbrt-v4 section A.5.5 uses an equal-area variant): the
+/// point is `(1 - b1 - b2) p0 + b1 p1 + b2 p2`. Density: `1 / area`.
+pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
+    let su = u.x.sqrt();
+    Vec2::new(1.0 - su, u.y * su)
+}
+
+/// Power heuristic with exponent 2 (Veach 1997, section 9.2.4) for a sample
+/// from strategy `f` taken `nf` times with density `f_pdf`, against strategy
+/// `g` taken `ng` times with density `g_pdf`. Written as
+/// `1 / (1 + (b / a)^2)` so that no square overflows; always in `[0, 1]`.
+pub fn power_heuristic(nf: f32, f_pdf: f32, ng: f32, g_pdf: f32) -> f32 {
+    let a = nf * f_pdf;
+    let b = ng * g_pdf;
+    if !(a > 0.0) {
+        return 0.0;
+    }
+    if !(b > 0.0) {
+        return 1.0;
+    }
+    if a.is_infinite() {
+        return if b.is_infinite() { 0.5 } else { 1.0 };
+    }
+    let r = b / a;
+    1.0 / (1.0 + r * r)
+}
+
+/// A discrete distribution over `n` items with weights, sampled by inverting
+/// its cumulative sum. Items of weight zero are never chosen.
+#[derive(Debug, Clone)]
+pub struct Discrete {
+    cdf: Vec<f64>,
+    total: f64,
+}
+
+/// One draw from a [`Discrete`] distribution.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DiscreteSample {
+    /// The chosen item.
+    pub index: usize,
+    /// Its probability.
+    pub pmf: f32,
+}
+
+impl Discrete {
+    /// A distribution proportional to `weights` (negative or non-finite weights
+    /// count as zero).
+    pub fn new(weights: &[f32]) -> Self {
+        let mut cdf = Vec::with_capacity(weights.len());
+        let mut acc = 0.0f64;
+        for &w in weights {
+            if w.is_finite() && w > 0.0 {
+                acc += w as f64;
+            }
+            cdf.push(acc);
+        }
+        Discrete { cdf, total: acc }
+    }
+
+    /// Whether every weight is zero (nothing can be sampled).
+    pub fn is_empty(&self) -> bool {
+        !(self.total > 0.0)
+    }
+
+    /// Probability of item `i`.
+    pub fn pmf(&self, i: usize) -> f32 {
+        if self.is_empty() || i >= self.cdf.len() {
+            return 0.0;
+        }
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        ((self.cdf[i] - lo) / self.total) as f32
+    }
+
+    /// Choose an item with `u` in `[0, 1)`.
+    pub fn sample(&self, u: f32) -> Option<DiscreteSample> {
+        if self.is_empty() {
+            return None;
+        }
+        let target = (u as f64).clamp(0.0, 1.0) * self.total;
+        // first index whose cdf exceeds the target: never a zero-weight item
+        let mut i = self.cdf.partition_point(|&c| c <= target);
+        if i >= self.cdf.len() {
+            // u == 1: the last item with weight
+            i = self.cdf.partition_point(|&c| c < self.total);
+        }
+        Some(DiscreteSample {
+            index: i,
+            pmf: self.pmf(i),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const EXTREMES: [f32; 5] = [0.0, 1.4e-45, 0.5, 1.0 - 5.96e-8, 1.0];
+
+    #[test]
+    fn extreme_numbers_give_finite_unit_directions() {
+        for &a in &EXTREMES {
+            for &b in &EXTREMES {
+                let u = Vec2::new(a, b);
+                let w = square_to_cosine_hemisphere(u);
+                assert!(w.is_finite() && (w.length() - 1.0).abs() < 1e-5, "{u:?} -> {w:?}");
+                assert!(w.z >= 0.0);
+                let pdf = square_to_cosine_hemisphere_pdf(w);
+                assert!(pdf.is_finite() && pdf >= 0.0);
+                let s = square_to_uniform_sphere(u);
+                assert!(s.is_finite() && (s.length() - 1.0).abs() < 1e-5);
+                let t = square_to_uniform_triangle(u);
+                assert!(t.x >= 0.0 && t.y >= 0.0 && t.x + t.y <= 1.0 + 1e-6, "{t:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn power_heuristic_stays_in_unit_interval() {
+        let pdfs = [0.0, 1e-30, 1.0, 1e30, f32::INFINITY];
+        for &a in &pdfs {
+            for &b in &pdfs {
+                let w = power_heuristic(1.0, a, 1.0, b);
+                assert!((0.0..=1.0).contains(&w), "w({a}, {b}) = {w}");
+                if a > 0.0 && b > 0.0 && a.is_finite() && b.is_finite() {
+                    let sum = w + power_heuristic(1.0, b, 1.0, a);
+                    assert!((sum - 1.0).abs() < 1e-6, "weights of {a}, {b} sum to {sum}");
+                }
+            }
+        }
+        assert_eq!(power_heuristic(1.0, 0.0, 1.0, 1.0), 0.0);
+        assert_eq!(power_heuristic(1.0, 1.0, 1.0, 0.0), 1.0);
+    }
+
+    #[test]
+    fn discrete_skips_zero_weights() {
+        let d = Discrete::new(&[0.0, 1.0, 0.0, 3.0, 0.0]);
+        for &u in &EXTREMES {
+            let s = d.sample(u).unwrap();
+            assert!(s.index == 1 || s.index == 3, "u={u} chose {}", s.index);
+            assert!(s.pmf > 0.0);
+        }
+        assert_eq!(d.pmf(3), 0.75);
+        assert_eq!(d.pmf(0), 0.0);
+        assert!(Discrete::new(&[0.0, f32::NAN]).sample(0.5).is_none());
+    }
+}

@@ -1,0 +1,385 @@
+//! The immutable [`Scene`]: flat triangle arrays, materials, lights, camera and
+//! render defaults, shared read-only by every render thread. One loader per
+//! format fills it through [`SceneBuilder`], which is also where geometry is
+//! cleaned (degenerate and non-finite triangles dropped and reported) so that
+//! every backend sees the same triangles.
+
+mod obj;
+mod toml_file;
+
+use crate::error::{Error, Result};
+use crate::math::{SurfacePoint, Vec3, triangle_normal};
+use std::path::{Path, PathBuf};
+
+pub use obj::load_obj_mesh;
+
+/// Largest accepted image side, in pixels.
+pub const MAX_RESOLUTION: u32 = 1 << 15;
+/// Largest accepted pixel count (about 268 Mpixels, 15 GiB of f64 film).
+pub const MAX_PIXELS: u64 = 1 << 28;
+
+/// A diffuse, possibly emissive material.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    /// Name (from the .mtl file, or a generated one).
+    pub name: String,
+    /// Lambertian albedo, each channel in `[0, 1]`.
+    pub albedo: Vec3,
+    /// Emitted radiance (an area light when non-zero).
+    pub emission: Vec3,
+    /// Emit from both sides (otherwise only from the front, where the
+    /// triangle winds counter-clockwise).
+    pub two_sided: bool,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            name: "default".to_string(),
+            albedo: Vec3::splat(0.8),
+            emission: Vec3::ZERO,
+            two_sided: false,
+        }
+    }
+}
+
+/// The pinhole camera as a scene file describes it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraDesc {
+    /// Eye position.
+    pub origin: Vec3,
+    /// Point looked at.
+    pub target: Vec3,
+    /// Up direction (need not be orthogonal to the view direction).
+    pub up: Vec3,
+    /// Vertical field of view in degrees.
+    pub fov_y: f32,
+}
+
+/// Render settings a scene file may set; command-line flags override them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RenderDefaults {
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Maximum path length in bounces.
+    pub max_depth: u32,
+    /// Light samples per shading point.
+    pub light_samples: u32,
+    /// Random seed.
+    pub seed: u64,
+}
+
+impl Default for RenderDefaults {
+    fn default() -> Self {
+        RenderDefaults {
+            spp: 64,
+            max_depth: 64,
+            light_samples: 1,
+            seed: 0,
+        }
+    }
+}
+
+/// Where one mesh's triangles sit in the flat arrays (for messages).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct MeshRange {
+    /// The mesh's name (its file, or its object name).
+    pub name: String,
+    /// First triangle index.
+    pub start: u32,
+    /// One past the last triangle index.
+    pub end: u32,
+}
+
+/// Everything a render needs to know about the world. Immutable once built.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// The file the scene came from.
+    pub source: PathBuf,
+    /// Vertex positions in world space.
+    pub positions: Vec<Vec3>,
+    /// Three vertex indices per triangle, counter-clockwise seen from the front.
+    pub indices: Vec<[u32; 3]>,
+    /// Unit geometric normal per triangle (the front side).
+    pub normals: Vec<Vec3>,
+    /// Material index per triangle.
+    pub tri_material: Vec<u32>,
+    /// Materials.
+    pub materials: Vec<Material>,
+    /// Mesh ranges, in order.
+    pub meshes: Vec<MeshRange>,
+    /// Radiance of the uniform environment light, if any.
+    pub environment: Option<Vec3>,
+    /// The camera.
+    pub camera: CameraDesc,
+    /// Image width and height.
+    pub resolution: [u32; 2],
+    /// Render defaults from the file.
+    pub render: RenderDefaults,
+    /// Things worth telling the user (dropped triangles, defaults applied).
+    pub notes: Vec<String>,
+}
+
+impl Scene {
+    /// Load a scene by extension: `.toml` (scene file) or `.obj` (a bare mesh,
+    /// framed automatically; lit by a white environment if it has no emitters).
+    pub fn load(path: &Path) -> Result<Scene> {
+        let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+        if meta.is_dir() {
+            return Err(Error::input(path, None, "is a directory, expected a scene file"));
+        }
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+            .unwrap_or_default();
+        match ext.as_str() {
+            "toml" => toml_file::load(path),
+            "obj" => obj::load_bare(path),
+            _ => Err(Error::input(
+                path,
+                None,
+                format!("unknown scene format `.{ext}` (expected .toml or .obj)"),
+            )),
+        }
+    }
+
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len()
+    }
+
+    /// The three corners of triangle `prim`.
+    #[inline]
+    pub fn triangle(&self, prim: u32) -> [Vec3; 3] {
+        self.indices[prim as usize].map(|i| self.positions[i as usize])
+    }
+
+    /// The material of triangle `prim`.
+    #[inline]
+    pub fn material(&self, prim: u32) -> &Material {
+        &self.materials[self.tri_material[prim as usize] as usize]
+    }
+
+    /// The surface point at barycentrics `(u, v)` of triangle `prim`, rebuilt
+    /// from the vertex buffer with its error bound.
+    #[inline]
+    pub fn surface_point(&self, prim: u32, u: f32, v: f32) -> SurfacePoint {
+        SurfacePoint::on_triangle(self.triangle(prim), u, v, self.normals[prim as usize])
+    }
+
+    /// Axis-aligned bounds of all vertices used by triangles: `(min, max)`.
+    pub fn bounds(&self) -> Bounds {
+        let mut b = Bounds::empty();
+        for t in &self.indices {
+            for &i in t {
+                b.extend(self.positions[i as usize]);
+            }
+        }
+        b
+    }
+
+    /// The triangles as a backend receives them.
+    pub fn soup(&self) -> crate::accel::TriangleSoup<'_> {
+        crate::accel::TriangleSoup {
+            positions: &self.positions,
+            indices: &self.indices,
+        }
+    }
+
+    /// Whether any material emits.
+    pub fn has_emitters(&self) -> bool {
+        (0..self.indices.len()).any(|i| self.material(i as u32).emission.max_element() > 0.0)
+    }
+
+    /// A camera that frames the scene's bounds from the +z side.
+    pub fn framing_camera(bounds: &Bounds) -> CameraDesc {
+        let fov_y = 39.3f32;
+        let (centre, radius) = if bounds.is_empty() {
+            (Vec3::ZERO, 1.0)
+        } else {
+            let c = 0.5 * (bounds.min + bounds.max);
+            (c, (0.5 * (bounds.max - bounds.min).length()).max(1e-6))
+        };
+        let dist = radius / (0.5 * fov_y.to_radians()).sin() * 1.05;
+        CameraDesc {
+            origin: centre + Vec3::new(0.0, 0.0, dist),
+            target: centre,
+            up: Vec3::Y,
+            fov_y,
+        }
+    }
+}
+
+/// An axis-aligned box.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bounds {
+    /// Lower corner.
+    pub min: Vec3,
+    /// Upper corner.
+    pub max: Vec3,
+}
+
+impl Bounds {
+    /// The empty box.
+    pub fn empty() -> Self {
+        Bounds {
+            min: Vec3::splat(f32::INFINITY),
+            max: Vec3::splat(f32::NEG_INFINITY),
+        }
+    }
+
+    /// Grow to contain `p`.
+    pub fn extend(&mut self, p: Vec3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+
+    /// Whether nothing was added.
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x
+    }
+}
+
+/// An affine placement: scale, then rotate about an axis, then translate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transform {
+    /// Per-axis scale.
+    pub scale: Vec3,
+    /// Rotation axis (any length but zero) and angle in degrees.
+    pub rotate: Option<(Vec3, f32)>,
+    /// Translation.
+    pub translate: Vec3,
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Transform {
+            scale: Vec3::ONE,
+            rotate: None,
+            translate: Vec3::ZERO,
+        }
+    }
+}
+
+impl Transform {
+    /// The matrix `T * R * S`.
+    pub fn matrix(&self) -> glam::Affine3A {
+        let r = match self.rotate {
+            Some((axis, deg)) => glam::Quat::from_axis_angle(axis.normalize(), deg.to_radians()),
+            None => glam::Quat::IDENTITY,
+        };
+        glam::Affine3A::from_scale_rotation_translation(self.scale, r, self.translate)
+    }
+
+    /// Whether the transform mirrors space (its determinant is negative), in
+    /// which case triangle winding is reversed to keep fronts in front.
+    pub fn mirrors(&self) -> bool {
+        self.scale.x * self.scale.y * self.scale.z < 0.0
+    }
+}
+
+/// A mesh as a loader reads it, before placement: positions, triangles and a
+/// material index per triangle into `materials`.
+#[derive(Debug, Clone, Default)]
+pub struct MeshData {
+    /// Name for messages.
+    pub name: String,
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Triangles.
+    pub indices: Vec<[u32; 3]>,
+    /// Material per triangle, indexing `materials`.
+    pub tri_material: Vec<u32>,
+    /// The mesh's materials.
+    pub materials: Vec<Material>,
+}
+
+/// Accumulates meshes into a [`Scene`], dropping triangles no backend should see.
+#[derive(Debug)]
+pub struct SceneBuilder {
+    scene: Scene,
+}
+
+impl SceneBuilder {
+    /// An empty scene read from `source`.
+    pub fn new(source: &Path) -> Self {
+        SceneBuilder {
+            scene: Scene {
+                source: source.to_path_buf(),
+                positions: Vec::new(),
+                indices: Vec::new(),
+                normals: Vec::new(),
+                tri_material: Vec::new(),
+                materials: Vec::new(),
+                meshes: Vec::new(),
+                environment: None,
+                camera: Scene::framing_camera(&Bounds::empty()),
+                resolution: [512, 512],
+                render: RenderDefaults::default(),
+                notes: Vec::new(),
+            },
+        }
+    }
+
+    /// Add a mesh placed by `transform`. Triangles whose corners become
+    /// non-finite, or whose area is zero, are dropped and counted in a note.
+    pub fn add_mesh(&mut self, mesh: MeshData, transform: &Transform) {
+        let s = &mut self.scene;
+        let m = transform.matrix();
+        let flip = transform.mirrors();
+        let base_material = s.materials.len() as u32;
+        s.materials.extend(mesh.materials);
+        let base_vertex = s.positions.len() as u32;
+        s.positions
+            .extend(mesh.positions.iter().map(|&p| m.transform_point3(p)));
+        let start = s.indices.len() as u32;
+        let (mut nonfinite, mut degenerate) = (0usize, 0usize);
+        for (t, &mat) in mesh.indices.iter().zip(&mesh.tri_material) {
+            let mut idx = t.map(|i| i + base_vertex);
+            if flip {
+                idx.swap(1, 2);
+            }
+            let p = idx.map(|i| s.positions[i as usize]);
+            if !p.iter().all(|q| q.is_finite()) {
+                nonfinite += 1;
+                continue;
+            }
+            let Some(n) = triangle_normal(p[0], p[1], p[2]) else {
+                degenerate += 1;
+                continue;
+            };
+            s.indices.push(idx);
+            s.normals.push(n);
+            s.tri_material.push(base_material + mat);
+        }
+        if nonfinite > 0 {
+            s.notes.push(format!(
+                "mesh {}: dropped {nonfinite} triangles whose placed coordinates are not finite",
+                mesh.name
+            ));
+        }
+        if degenerate > 0 {
+            s.notes.push(format!(
+                "mesh {}: dropped {degenerate} degenerate (zero-area) triangles",
+                mesh.name
+            ));
+        }
+        let end = s.indices.len() as u32;
+        s.meshes.push(MeshRange {
+            name: mesh.name,
+            start,
+            end,
+        });
+    }
+
+    /// Mutable access to the scene being built (camera, film, defaults, lights).
+    pub fn scene_mut(&mut self) -> &mut Scene {
+        &mut self.scene
+    }
+
+    /// Finish.
+    pub fn build(self) -> Scene {
+        self.scene
+    }
+}

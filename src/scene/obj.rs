@@ -1,0 +1,219 @@
+//! Wavefront OBJ/MTL meshes through tobj. MTL `Kd` is the diffuse albedo and
+//! `Ke` the emitted radiance (an area light, front side only).
+//!
+//! tobj reports malformed files without line numbers, so a short validating
+//! pass runs first: it names the file and line of a non-finite or unparsable
+//! vertex, an out-of-range face index, or a missing material library.
+
+use super::{Material, MeshData, Scene, SceneBuilder, Transform};
+use crate::error::{Error, Result};
+use crate::math::Vec3;
+use std::path::{Path, PathBuf};
+
+/// Read `path` as one mesh (all its objects merged), with its materials.
+pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
+    let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let text = String::from_utf8_lossy(&text);
+    let mtllibs = validate(path, &text)?;
+    for lib in &mtllibs {
+        if !lib.is_file() {
+            return Err(Error::input(
+                lib,
+                None,
+                format!(
+                    "cannot read material library named by {} (expected a readable .mtl file)",
+                    path.display()
+                ),
+            ));
+        }
+    }
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: false,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let (models, materials) = tobj::load_obj(path, &options)
+        .map_err(|e| Error::input(path, None, format!("malformed OBJ: {e}")))?;
+    let tobj_materials = match materials {
+        Ok(m) => m,
+        Err(e) if mtllibs.is_empty() => {
+            let _ = e;
+            Vec::new()
+        }
+        Err(e) => {
+            return Err(Error::input(
+                &mtllibs[0],
+                None,
+                format!("malformed material library: {e}"),
+            ));
+        }
+    };
+    let mut mesh = MeshData {
+        name: path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        ..MeshData::default()
+    };
+    for m in &tobj_materials {
+        mesh.materials.push(convert_material(m, &mtllibs, path)?);
+    }
+    let default_material = mesh.materials.len() as u32;
+    mesh.materials.push(Material::default());
+    for model in &models {
+        let m = &model.mesh;
+        let base = mesh.positions.len() as u32;
+        for p in m.positions.chunks_exact(3) {
+            mesh.positions.push(Vec3::new(p[0], p[1], p[2]));
+        }
+        let count = (m.positions.len() / 3) as u32;
+        let mat = m
+            .material_id
+            .filter(|&i| i < tobj_materials.len())
+            .map_or(default_material, |i| i as u32);
+        for t in m.indices.chunks_exact(3) {
+            if t.iter().any(|&i| i >= count) {
+                return Err(Error::input(
+                    path,
+                    None,
+                    format!("object `{}`: face index out of range", model.name),
+                ));
+            }
+            mesh.indices.push([t[0] + base, t[1] + base, t[2] + base]);
+            mesh.tri_material.push(mat);
+        }
+    }
+    Ok(mesh)
+}
+
+fn convert_material(m: &tobj::Material, libs: &[PathBuf], obj: &Path) -> Result<Material> {
+    let file = libs.first().map_or(obj, |p| p.as_path());
+    let colour = |name: &str, c: Option<[f32; 3]>, default: Vec3| -> Result<Vec3> {
+        let v = c.map_or(default, Vec3::from);
+        if !v.is_finite() || v.min_element() < 0.0 {
+            return Err(Error::input(
+                file,
+                None,
+                format!(
+                    "material `{}`: {name} must be finite and non-negative, got {v}",
+                    m.name
+                ),
+            ));
+        }
+        Ok(v)
+    };
+    let albedo = colour("Kd", m.diffuse, Vec3::splat(0.8))?;
+    if albedo.max_element() > 1.0 {
+        return Err(Error::input(
+            file,
+            None,
+            format!("material `{}`: Kd must be at most 1 (energy conservation), got {albedo}", m.name),
+        ));
+    }
+    Ok(Material {
+        name: m.name.clone(),
+        albedo,
+        emission: colour("Ke", m.emissive, Vec3::ZERO)?,
+        two_sided: false,
+    })
+}
+
+/// Check vertex lines and face indices, naming the line of the first problem.
+/// Returns the material libraries the file names, resolved next to it.
+fn validate(path: &Path, text: &str) -> Result<Vec<PathBuf>> {
+    let total_vertices = text
+        .lines()
+        .filter(|l| l.trim_start().starts_with("v ") || l.trim_start().starts_with("v\t"))
+        .count() as i64;
+    let mut seen_vertices = 0i64;
+    let mut libs = Vec::new();
+    let dir = path.parent().unwrap_or(Path::new(""));
+    for (n, line) in text.lines().enumerate() {
+        let line_no = Some(n + 1);
+        let line = line.split('#').next().unwrap_or("");
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => {
+                let coords: Vec<&str> = words.collect();
+                if coords.len() < 3 {
+                    return Err(Error::input(path, line_no, "expected three coordinates after `v`"));
+                }
+                for c in &coords[..3] {
+                    match c.parse::<f32>() {
+                        Ok(x) if x.is_finite() => {}
+                        Ok(_) => {
+                            return Err(Error::input(
+                                path,
+                                line_no,
+                                format!("vertex coordinate `{c}` is not finite (expected a finite number)"),
+                            ));
+                        }
+                        Err(_) => {
+                            return Err(Error::input(
+                                path,
+                                line_no,
+                                format!("cannot parse vertex coordinate `{c}` (expected a number)"),
+                            ));
+                        }
+                    }
+                }
+                seen_vertices += 1;
+            }
+            Some("f") => {
+                let verts: Vec<&str> = words.collect();
+                if verts.len() < 3 {
+                    return Err(Error::input(path, line_no, "a face needs at least three vertices"));
+                }
+                for v in verts {
+                    let first = v.split('/').next().unwrap_or("");
+                    let Ok(i) = first.parse::<i64>() else {
+                        return Err(Error::input(
+                            path,
+                            line_no,
+                            format!("cannot parse face vertex `{v}` (expected an index)"),
+                        ));
+                    };
+                    let ok = if i > 0 {
+                        i <= total_vertices
+                    } else {
+                        i < 0 && seen_vertices + i >= 0
+                    };
+                    if !ok {
+                        return Err(Error::input(
+                            path,
+                            line_no,
+                            format!("face index {i} out of range (the file has {total_vertices} vertices)"),
+                        ));
+                    }
+                }
+            }
+            Some("mtllib") => {
+                let rest = line.trim_start()["mtllib".len()..].trim();
+                if !rest.is_empty() {
+                    libs.push(dir.join(rest));
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(libs)
+}
+
+/// A bare `.obj` as a scene: framed from its bounds, lit by a uniform white
+/// environment when it has no emitters.
+pub fn load_bare(path: &Path) -> Result<Scene> {
+    let mesh = load_obj_mesh(path)?;
+    let mut b = SceneBuilder::new(path);
+    b.add_mesh(mesh, &Transform::default());
+    let mut scene = b.build();
+    scene.camera = Scene::framing_camera(&scene.bounds());
+    scene.notes.push("camera framed automatically from the mesh bounds".to_string());
+    if !scene.has_emitters() {
+        scene.environment = Some(Vec3::ONE);
+        scene
+            .notes
+            .push("no emitters in the mesh: lighting it with a uniform white environment".to_string());
+    }
+    Ok(scene)
+}

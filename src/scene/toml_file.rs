@@ -1,0 +1,362 @@
+//! The TOML scene format. The schema is fixed (other scripts write it); unknown
+//! keys are errors naming the key, the file and the line.
+//!
+//! ```toml
+//! [camera]
+//! origin = [0.0, 1.0, 3.9]
+//! target = [0.0, 1.0, 0.0]
+//! up     = [0.0, 1.0, 0.0]
+//! fov_y  = 39.3               # vertical field of view, degrees
+//!
+//! [film]
+//! resolution = [512, 512]     # width, height
+//!
+//! [render]                    # defaults; command-line flags override them
+//! spp = 64
+//! max_depth = 64
+//! light_samples = 1
+//! seed = 0
+//!
+//! [[mesh]]
+//! file = "cornell-box.obj"    # relative to the scene file
+//! transform = { scale = 1.0, rotate = [0, 1, 0, 30], translate = [0, 0, 0] }
+//! material = { diffuse = [0.5, 0.5, 0.5], emission = 0.0, two_sided = false }
+//!
+//! [[light]]
+//! type = "environment"
+//! radiance = [1.0, 1.0, 1.0]  # or one number
+//! ```
+
+use super::{
+    CameraDesc, MAX_PIXELS, MAX_RESOLUTION, RenderDefaults, Scene, SceneBuilder, Transform,
+    load_obj_mesh,
+};
+use crate::error::{Error, Result};
+use crate::math::Vec3;
+use serde::de::{self, Deserializer, SeqAccess, Visitor};
+use serde::Deserialize;
+use std::fmt;
+use std::path::Path;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    camera: Option<CameraToml>,
+    film: Option<FilmToml>,
+    render: Option<RenderToml>,
+    #[serde(default)]
+    mesh: Vec<MeshToml>,
+    #[serde(default)]
+    light: Vec<LightToml>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraToml {
+    origin: [f32; 3],
+    target: [f32; 3],
+    #[serde(default = "default_up")]
+    up: [f32; 3],
+    #[serde(default = "default_fov")]
+    fov_y: f32,
+}
+
+fn default_up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
+
+fn default_fov() -> f32 {
+    39.3
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FilmToml {
+    resolution: [u64; 2],
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RenderToml {
+    spp: Option<u32>,
+    max_depth: Option<u32>,
+    light_samples: Option<u32>,
+    seed: Option<u64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MeshToml {
+    file: String,
+    transform: Option<TransformToml>,
+    material: Option<MaterialToml>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TransformToml {
+    scale: Option<Rgb>,
+    rotate: Option<[f32; 4]>,
+    translate: Option<[f32; 3]>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialToml {
+    diffuse: Option<Rgb>,
+    emission: Option<Rgb>,
+    two_sided: Option<bool>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LightToml {
+    #[serde(rename = "type")]
+    kind: String,
+    radiance: Option<Rgb>,
+}
+
+/// A colour-like value: one number or an `[r, g, b]` triple.
+#[derive(Debug, Clone, Copy)]
+struct Rgb(Vec3);
+
+impl<'de> Deserialize<'de> for Rgb {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Rgb;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number or an [r, g, b] array of three numbers")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> std::result::Result<Rgb, E> {
+                Ok(Rgb(Vec3::splat(v as f32)))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> std::result::Result<Rgb, E> {
+                Ok(Rgb(Vec3::splat(v as f32)))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> std::result::Result<Rgb, E> {
+                Ok(Rgb(Vec3::splat(v as f32)))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut s: A) -> std::result::Result<Rgb, A::Error> {
+                let mut c = [0.0f32; 3];
+                for (i, slot) in c.iter_mut().enumerate() {
+                    *slot = s
+                        .next_element::<f32>()?
+                        .ok_or_else(|| de::Error::invalid_length(i, &self))?;
+                }
+                if s.next_element::<f32>()?.is_some() {
+                    return Err(de::Error::invalid_length(4, &self));
+                }
+                Ok(Rgb(Vec3::from(c)))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// Line (1-based) of byte `offset` in `text`.
+fn line_of(text: &str, offset: usize) -> usize {
+    text[..offset.min(text.len())].bytes().filter(|&b| b == b'\n').count() + 1
+}
+
+/// Line of the `index`-th `[[table]]` header named `name`, for messages.
+fn table_line(text: &str, name: &str, index: usize) -> Option<usize> {
+    let header = format!("[[{name}]]");
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| l.trim_start().starts_with(&header))
+        .nth(index)
+        .map(|(n, _)| n + 1)
+}
+
+fn check_vec(path: &Path, line: Option<usize>, what: &str, v: Vec3) -> Result<Vec3> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(Error::input(path, line, format!("{what} must be finite, got {v}")))
+    }
+}
+
+fn check_colour(path: &Path, line: Option<usize>, what: &str, c: Rgb) -> Result<Vec3> {
+    let v = check_vec(path, line, what, c.0)?;
+    if v.min_element() < 0.0 {
+        return Err(Error::input(path, line, format!("{what} must be non-negative, got {v}")));
+    }
+    Ok(v)
+}
+
+/// Load a TOML scene.
+pub fn load(path: &Path) -> Result<Scene> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let text = String::from_utf8(bytes)
+        .map_err(|_| Error::input(path, None, "not UTF-8 text (expected a TOML scene)"))?;
+    let file: SceneFile = toml::from_str(&text).map_err(|e| {
+        let line = e.span().map(|s| line_of(&text, s.start));
+        Error::input(path, line, e.message().trim().replace('\n', " "))
+    })?;
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let mut b = SceneBuilder::new(path);
+
+    for (i, m) in file.mesh.iter().enumerate() {
+        let line = table_line(&text, "mesh", i);
+        let mesh_path = dir.join(&m.file);
+        let ext = mesh_path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase());
+        if ext.as_deref() != Some("obj") {
+            return Err(Error::input(
+                path,
+                line,
+                format!("mesh file `{}`: unknown format (expected .obj)", m.file),
+            ));
+        }
+        if !mesh_path.is_file() {
+            return Err(Error::input(
+                path,
+                line,
+                format!("mesh file `{}` not found (expected a file next to the scene)", m.file),
+            ));
+        }
+        let mut mesh = load_obj_mesh(&mesh_path)?;
+        if let Some(over) = &m.material {
+            for mat in &mut mesh.materials {
+                if let Some(d) = over.diffuse {
+                    let d = check_colour(path, line, "material.diffuse", d)?;
+                    if d.max_element() > 1.0 {
+                        return Err(Error::input(
+                            path,
+                            line,
+                            format!("material.diffuse must be at most 1, got {d}"),
+                        ));
+                    }
+                    mat.albedo = d;
+                }
+                if let Some(e) = over.emission {
+                    mat.emission = check_colour(path, line, "material.emission", e)?;
+                }
+                if let Some(t) = over.two_sided {
+                    mat.two_sided = t;
+                }
+            }
+        }
+        let mut transform = Transform::default();
+        if let Some(t) = &m.transform {
+            if let Some(s) = t.scale {
+                transform.scale = check_vec(path, line, "transform.scale", s.0)?;
+                if transform.scale.min_element().abs() == 0.0
+                    || transform.scale.x * transform.scale.y * transform.scale.z == 0.0
+                {
+                    return Err(Error::input(path, line, "transform.scale must be non-zero on every axis"));
+                }
+            }
+            if let Some(r) = t.rotate {
+                let axis = check_vec(path, line, "transform.rotate axis", Vec3::new(r[0], r[1], r[2]))?;
+                if axis.length() == 0.0 || !r[3].is_finite() {
+                    return Err(Error::input(
+                        path,
+                        line,
+                        "transform.rotate must be [ax, ay, az, degrees] with a non-zero axis",
+                    ));
+                }
+                transform.rotate = Some((axis, r[3]));
+            }
+            if let Some(tr) = t.translate {
+                transform.translate = check_vec(path, line, "transform.translate", Vec3::from(tr))?;
+            }
+        }
+        b.add_mesh(mesh, &transform);
+    }
+
+    let scene = b.scene_mut();
+    for (i, l) in file.light.iter().enumerate() {
+        let line = table_line(&text, "light", i);
+        match l.kind.as_str() {
+            "environment" => {
+                let r = l.radiance.ok_or_else(|| {
+                    Error::input(path, line, "environment light needs `radiance`")
+                })?;
+                let r = check_colour(path, line, "radiance", r)?;
+                scene.environment = Some(scene.environment.unwrap_or(Vec3::ZERO) + r);
+            }
+            other => {
+                return Err(Error::input(
+                    path,
+                    line,
+                    format!("unknown light type `{other}` (expected \"environment\")"),
+                ));
+            }
+        }
+    }
+
+    if let Some(f) = &file.film {
+        let [w, h] = f.resolution;
+        if w == 0 || h == 0 || w > MAX_RESOLUTION as u64 || h > MAX_RESOLUTION as u64 || w * h > MAX_PIXELS {
+            let line = text.lines().position(|l| l.trim_start().starts_with("resolution")).map(|n| n + 1);
+            return Err(Error::input(
+                path,
+                line,
+                format!(
+                    "resolution {w} x {h} out of range (each side 1..={MAX_RESOLUTION}, at most {MAX_PIXELS} pixels)"
+                ),
+            ));
+        }
+        scene.resolution = [w as u32, h as u32];
+    }
+    let mut render = RenderDefaults::default();
+    if let Some(r) = &file.render {
+        render.spp = r.spp.unwrap_or(render.spp);
+        render.max_depth = r.max_depth.unwrap_or(render.max_depth);
+        render.light_samples = r.light_samples.unwrap_or(render.light_samples);
+        render.seed = r.seed.unwrap_or(render.seed);
+    }
+    scene.render = render;
+    match &file.camera {
+        Some(c) => {
+            let line = text.lines().position(|l| l.trim() == "[camera]").map(|n| n + 1);
+            let origin = check_vec(path, line, "camera.origin", Vec3::from(c.origin))?;
+            let target = check_vec(path, line, "camera.target", Vec3::from(c.target))?;
+            let up = check_vec(path, line, "camera.up", Vec3::from(c.up))?;
+            let view = target - origin;
+            if view.length() == 0.0 || view.cross(up).length() == 0.0 {
+                return Err(Error::input(
+                    path,
+                    line,
+                    "camera: origin and target must differ and `up` must not be parallel to the view",
+                ));
+            }
+            if !(c.fov_y > 0.0 && c.fov_y < 180.0) {
+                return Err(Error::input(
+                    path,
+                    line,
+                    format!("camera.fov_y must be in (0, 180) degrees, got {}", c.fov_y),
+                ));
+            }
+            scene.camera = CameraDesc {
+                origin,
+                target,
+                up,
+                fov_y: c.fov_y,
+            };
+        }
+        None => {
+            scene.camera = Scene::framing_camera(&scene.bounds());
+            scene
+                .notes
+                .push("no [camera]: framed automatically from the scene bounds".to_string());
+        }
+    }
+    Ok(b.build())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn line_numbers() {
+        assert_eq!(line_of("a\nb\nc", 0), 1);
+        assert_eq!(line_of("a\nb\nc", 2), 2);
+        assert_eq!(table_line("[[mesh]]\nx=1\n[[mesh]]\n", "mesh", 1), Some(3));
+    }
+}

@@ -1,0 +1,301 @@
+//! Bad input gets a clear one-line error naming the file (and line where
+//! known), a non-zero exit, no panic, and no output file left behind
+//! (`../shared/docs/hard-cases.md`, section E, case 27).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+struct Case {
+    name: &'static str,
+    files: Vec<(&'static str, String)>,
+    scene: &'static str,
+    /// Text the error line must contain (file name, line, expectation).
+    expect: Vec<&'static str>,
+}
+
+const GOOD_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+fn toml_with_mesh(extra: &str) -> String {
+    format!(
+        "[camera]\norigin = [0, 0, 3]\ntarget = [0, 0, 0]\n\n[[mesh]]\nfile = \"m.obj\"\n{extra}\n"
+    )
+}
+
+fn cases() -> Vec<Case> {
+    vec![
+        Case {
+            name: "missing scene file",
+            files: vec![],
+            scene: "nope.toml",
+            expect: vec!["nope.toml"],
+        },
+        Case {
+            name: "malformed toml",
+            files: vec![("s.toml", "[camera\norigin = [0, 0, 3]\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:1"],
+        },
+        Case {
+            name: "unknown key",
+            files: vec![
+                ("m.obj", GOOD_OBJ.into()),
+                ("s.toml", toml_with_mesh("colour = 3")),
+            ],
+            scene: "s.toml",
+            expect: vec!["s.toml:7", "colour"],
+        },
+        Case {
+            name: "unknown key in camera",
+            files: vec![(
+                "s.toml",
+                "[camera]\norigin = [0, 0, 3]\ntarget = [0, 0, 0]\nfov = 40\n".into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:4", "fov"],
+        },
+        Case {
+            name: "wrong type",
+            files: vec![("s.toml", "[render]\nspp = \"many\"\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:2"],
+        },
+        Case {
+            name: "absurd resolution",
+            files: vec![(
+                "s.toml",
+                "[film]\nresolution = [1000000000, 1000000000]\n".into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:2", "resolution"],
+        },
+        Case {
+            name: "mesh file missing",
+            files: vec![("s.toml", toml_with_mesh(""))],
+            scene: "s.toml",
+            expect: vec!["s.toml:5", "m.obj"],
+        },
+        Case {
+            name: "malformed obj vertex",
+            files: vec![
+                ("m.obj", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n".into()),
+                ("s.toml", toml_with_mesh("")),
+            ],
+            scene: "s.toml",
+            expect: vec!["m.obj:2", "zero"],
+        },
+        Case {
+            name: "index out of range",
+            files: vec![("m.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n".into())],
+            scene: "m.obj",
+            expect: vec!["m.obj:4", "out of range"],
+        },
+        Case {
+            name: "negative index out of range",
+            files: vec![("m.obj", "v 0 0 0\nf -1 -2 -3\n".into())],
+            scene: "m.obj",
+            expect: vec!["m.obj:2"],
+        },
+        Case {
+            name: "NaN coordinate",
+            files: vec![("m.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n".into())],
+            scene: "m.obj",
+            expect: vec!["m.obj:2", "finite"],
+        },
+        Case {
+            name: "infinite coordinate",
+            files: vec![("m.obj", "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n".into())],
+            scene: "m.obj",
+            expect: vec!["m.obj:2", "finite"],
+        },
+        Case {
+            name: "truncated face",
+            files: vec![("m.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n".into())],
+            scene: "m.obj",
+            expect: vec!["m.obj:4"],
+        },
+        Case {
+            name: "missing mtl",
+            files: vec![("m.obj", format!("mtllib gone.mtl\n{GOOD_OBJ}"))],
+            scene: "m.obj",
+            expect: vec!["gone.mtl"],
+        },
+        Case {
+            name: "directory as scene",
+            files: vec![("d.toml/x", String::new())],
+            scene: "d.toml",
+            expect: vec!["d.toml", "directory"],
+        },
+        Case {
+            name: "unknown scene format",
+            files: vec![("s.blend", String::new())],
+            scene: "s.blend",
+            expect: vec!["s.blend", "expected .toml or .obj"],
+        },
+        Case {
+            name: "unknown light type",
+            files: vec![(
+                "s.toml",
+                "[[light]]\ntype = \"laser\"\nradiance = 1\n".into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:1", "laser"],
+        },
+        Case {
+            name: "negative emission",
+            files: vec![
+                ("m.obj", GOOD_OBJ.into()),
+                ("s.toml", toml_with_mesh("material = { emission = -1 }")),
+            ],
+            scene: "s.toml",
+            expect: vec!["s.toml:5", "non-negative"],
+        },
+    ]
+}
+
+fn setup(dir: &Path, files: &[(&str, String)]) {
+    for (name, text) in files {
+        let p = dir.join(name);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(p, text).unwrap();
+    }
+}
+
+fn run(dir: &Path, args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_embertrace"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("embertrace runs")
+}
+
+fn entries(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn bad_scenes_fail_cleanly() {
+    for case in cases() {
+        let dir = tempfile::tempdir().unwrap();
+        setup(dir.path(), &case.files);
+        let before = entries(dir.path());
+        let out = run(
+            dir.path(),
+            &[
+                "render", case.scene, "-o", "out.png", "-s", "1", "-r", "8", "8", "--report",
+                "r.json",
+            ],
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(
+            out.status.code(),
+            Some(1),
+            "{}: exit status {:?}, stderr {stderr}",
+            case.name,
+            out.status
+        );
+        assert!(
+            !stderr.contains("panicked"),
+            "{}: panicked: {stderr}",
+            case.name
+        );
+        let lines: Vec<&str> = stderr.lines().filter(|l| !l.starts_with("note:")).collect();
+        assert_eq!(
+            lines.len(),
+            1,
+            "{}: expected one error line, got {stderr}",
+            case.name
+        );
+        for e in &case.expect {
+            assert!(
+                lines[0].contains(e),
+                "{}: `{}` lacks `{e}`",
+                case.name,
+                lines[0]
+            );
+        }
+        assert_eq!(
+            entries(dir.path()),
+            before,
+            "{}: files left behind",
+            case.name
+        );
+    }
+}
+
+#[test]
+fn bad_settings_fail_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    setup(dir.path(), &[("m.obj", GOOD_OBJ.into())]);
+    for (args, expect) in [
+        (
+            vec!["m.obj", "-o", "out.xyz"],
+            "expected .png, .exr or .pfm",
+        ),
+        (vec!["m.obj", "-o", "no/such/dir/out.png"], "does not exist"),
+        (vec!["m.obj", "-s", "0"], "at least one sample"),
+        (vec!["m.obj", "--rr", "1.5"], "[0, 1]"),
+        (vec!["m.obj", "-r", "0", "10"], "out of range"),
+    ] {
+        let out = run(dir.path(), &args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains(expect), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"));
+    }
+    assert_eq!(entries(dir.path()), vec![dir.path().join("m.obj")]);
+}
+
+#[test]
+fn classic_command_line_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    setup(dir.path(), &[("m.obj", GOOD_OBJ.into())]);
+    let out = run(
+        dir.path(),
+        &[
+            "-t", "2", "-s", "2", "-l", "1", "-m", "2", "-r", "16", "12", "-f", "out.pfm", "m.obj",
+            "--report", "r.json",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (w, h, _) = embertrace::film::read_pfm(&dir.path().join("out.pfm")).unwrap();
+    assert_eq!((w, h), (16, 12));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("r.json")).unwrap()).unwrap();
+    for key in [
+        "scene",
+        "backend",
+        "spp",
+        "max_depth",
+        "resolution",
+        "seed",
+        "threads",
+        "load_seconds",
+        "accel_build_seconds",
+        "render_seconds",
+        "rays",
+        "mrays_per_second",
+        "nonfinite_samples",
+        "mean_rgb",
+    ] {
+        assert!(report.get(key).is_some(), "report lacks {key}");
+    }
+    assert_eq!(report["spp"], 2);
+    assert_eq!(report["max_depth"], 2);
+    assert_eq!(report["resolution"], serde_json::json!([16, 12]));
+    assert_eq!(report["threads"], 2);
+    assert_eq!(report["rays"]["camera"], 16 * 12 * 2);
+    assert_eq!(report["nonfinite_samples"], 0);
+    // a bare mesh without emitters is lit by the white environment
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("environment"), "{stderr}");
+    assert!(report["mean_rgb"][0].as_f64().unwrap() > 0.0);
+}

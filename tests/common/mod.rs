@@ -1,0 +1,160 @@
+//! Shared helpers for the integration tests: scenes built in code, and the
+//! batch-means statistics of `../shared/docs/hard-cases.md` (fixed seeds,
+//! bands of about 5 sigma from batch means in f64, Sidak-corrected when several
+//! tests share one run).
+#![allow(dead_code)]
+
+use embertrace::math::Vec3;
+use embertrace::scene::{Material, MeshData, Scene, SceneBuilder, Transform};
+use std::path::Path;
+
+/// A mesh under construction: quads and triangles with their materials.
+#[derive(Default)]
+pub struct MeshMaker {
+    pub data: MeshData,
+}
+
+impl MeshMaker {
+    pub fn material(&mut self, albedo: f32, emission: f32, two_sided: bool) -> u32 {
+        self.data.materials.push(Material {
+            name: format!("m{}", self.data.materials.len()),
+            albedo: Vec3::splat(albedo),
+            emission: Vec3::splat(emission),
+            two_sided,
+        });
+        self.data.materials.len() as u32 - 1
+    }
+
+    /// Triangle a-b-c, counter-clockwise seen from the front.
+    pub fn tri(&mut self, a: Vec3, b: Vec3, c: Vec3, mat: u32) {
+        let base = self.data.positions.len() as u32;
+        self.data.positions.extend([a, b, c]);
+        self.data.indices.push([base, base + 1, base + 2]);
+        self.data.tri_material.push(mat);
+    }
+
+    /// Quad a-b-c-d, counter-clockwise seen from the front.
+    pub fn quad(&mut self, a: Vec3, b: Vec3, c: Vec3, d: Vec3, mat: u32) {
+        self.tri(a, b, c, mat);
+        self.tri(a, c, d, mat);
+    }
+
+    /// Regular n-gon of radius r centred at `c` in the plane z = c.z, facing
+    /// -z (down) when `down`, else +z. Returns its corners in order.
+    pub fn disk(&mut self, c: Vec3, r: f32, n: usize, down: bool, mat: u32) -> Vec<Vec3> {
+        let pts: Vec<Vec3> = (0..n)
+            .map(|i| {
+                let a = 2.0 * std::f32::consts::PI * i as f32 / n as f32;
+                c + Vec3::new(r * a.cos(), r * a.sin(), 0.0)
+            })
+            .collect();
+        for i in 0..n {
+            let (p, q) = (pts[i], pts[(i + 1) % n]);
+            if down {
+                self.tri(c, q, p, mat);
+            } else {
+                self.tri(c, p, q, mat);
+            }
+        }
+        pts
+    }
+
+    /// An axis-aligned box [lo, hi] whose faces point inwards.
+    pub fn inward_box(&mut self, lo: Vec3, hi: Vec3, mat: u32) {
+        let p = |x: usize, y: usize, z: usize| {
+            Vec3::new(
+                if x == 0 { lo.x } else { hi.x },
+                if y == 0 { lo.y } else { hi.y },
+                if z == 0 { lo.z } else { hi.z },
+            )
+        };
+        self.quad(p(0, 0, 0), p(0, 0, 1), p(1, 0, 1), p(1, 0, 0), mat); // floor, +y
+        self.quad(p(0, 1, 0), p(1, 1, 0), p(1, 1, 1), p(0, 1, 1), mat); // ceiling, -y
+        self.quad(p(0, 0, 0), p(1, 0, 0), p(1, 1, 0), p(0, 1, 0), mat); // z = lo, +z
+        self.quad(p(0, 0, 1), p(0, 1, 1), p(1, 1, 1), p(1, 0, 1), mat); // z = hi, -z
+        self.quad(p(0, 0, 0), p(0, 1, 0), p(0, 1, 1), p(0, 0, 1), mat); // x = lo, +x
+        self.quad(p(1, 0, 0), p(1, 0, 1), p(1, 1, 1), p(1, 1, 0), mat); // x = hi, -x
+    }
+
+    pub fn scene(self) -> Scene {
+        let mut b = SceneBuilder::new(Path::new("test-scene"));
+        b.add_mesh(self.data, &Transform::default());
+        b.build()
+    }
+}
+
+/// Lambert's formula: the form factor from a point at the origin with normal
+/// `n` to a polygon (corners in order, all above the horizon).
+pub fn lambert_form_factor(poly: &[Vec3], n: Vec3) -> f64 {
+    let n = n.as_dvec3();
+    let mut sum = 0.0;
+    for i in 0..poly.len() {
+        let a = poly[i].as_dvec3().normalize();
+        let b = poly[(i + 1) % poly.len()].as_dvec3().normalize();
+        let angle = a.dot(b).clamp(-1.0, 1.0).acos();
+        sum += angle * n.dot(a.cross(b).normalize());
+    }
+    (sum / (2.0 * std::f64::consts::PI)).abs()
+}
+
+/// Mean and standard error of the mean from `batches` batch means.
+pub struct BatchStats {
+    pub mean: f64,
+    pub std_err: f64,
+}
+
+/// Run `n` samples of `f` in `batches` equal batches; batch means give the
+/// standard error (robust to heavy tails within a batch).
+pub fn batch_means(n: usize, batches: usize, mut f: impl FnMut(usize) -> f64) -> BatchStats {
+    let per = n / batches;
+    let mut means = Vec::with_capacity(batches);
+    for b in 0..batches {
+        let mut s = 0.0;
+        for i in 0..per {
+            let x = f(b * per + i);
+            assert!(x.is_finite() && x >= 0.0, "sample {} is {x}", b * per + i);
+            s += x;
+        }
+        means.push(s / per as f64);
+    }
+    let mean = means.iter().sum::<f64>() / batches as f64;
+    let var = means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (batches - 1) as f64;
+    BatchStats {
+        mean,
+        std_err: (var / batches as f64).sqrt(),
+    }
+}
+
+/// The two-sided z quantile for `alpha` after Sidak correction over `m`
+/// tests: `1 - (1 - alpha)^(1/m)`. Bisection on the normal tail.
+pub fn sidak_z(alpha: f64, m: usize) -> f64 {
+    let a = 1.0 - (1.0 - alpha).powf(1.0 / m as f64);
+    // two-sided tail: P(|Z| > z) = erfc(z / sqrt 2)
+    let (mut lo, mut hi) = (0.0f64, 40.0f64);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if erfc(mid / std::f64::consts::SQRT_2) > a {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Complementary error function (Numerical Recipes' erfcc, |error| < 1.2e-7).
+pub fn erfc(x: f64) -> f64 {
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let r = t
+        * (-z * z - 1.26551223
+            + t * (1.00002368
+                + t * (0.37409196
+                    + t * (0.09678418
+                        + t * (-0.18628806
+                            + t * (0.27886807
+                                + t * (-1.13520398
+                                    + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
+            .exp();
+    if x >= 0.0 { r } else { 2.0 - r }
+}

@@ -1,0 +1,245 @@
+//! Whole renders of the bundled Cornell box: the image is the same bits for 1
+//! and N threads; the three direct-lighting strategies converge to the same
+//! image; Embree and the naive backend answer the box's rays alike.
+
+use embertrace::accel::{self, AccelOptions, Accelerator, Backend};
+use embertrace::camera::Camera;
+use embertrace::integrator::{DirectStrategy, IntegratorSettings, PathTracer};
+use embertrace::math::{Ray, Vec2, Vec3};
+use embertrace::render::{RenderOutput, RenderSettings, render};
+use embertrace::sampler::Sampler;
+use embertrace::scene::Scene;
+use std::path::Path;
+
+fn cornell() -> Scene {
+    Scene::load(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/cornell-box.toml"
+    )))
+    .unwrap()
+}
+
+fn render_box(
+    scene: &Scene,
+    backend: Backend,
+    res: u32,
+    spp: u32,
+    threads: usize,
+    tile: u32,
+    direct: DirectStrategy,
+) -> RenderOutput {
+    let acc = accel::build(backend, scene.soup(), AccelOptions::default()).unwrap();
+    let settings = IntegratorSettings {
+        direct,
+        ..IntegratorSettings::default()
+    };
+    let tracer = PathTracer::new(scene, acc.as_ref(), settings);
+    let camera = Camera::new(&scene.camera, res, res);
+    let rs = RenderSettings {
+        resolution: [res, res],
+        spp,
+        first_sample: 0,
+        seed: 5,
+        threads,
+        tile_size: tile,
+    };
+    render(&tracer, &camera, &rs, &|| {}).unwrap()
+}
+
+#[test]
+fn same_bits_for_any_thread_count_and_tile_size() {
+    let scene = cornell();
+    let backend = Backend::default_backend();
+    let one = render_box(&scene, backend, 40, 4, 1, 16, DirectStrategy::Mis);
+    let many = render_box(&scene, backend, 40, 4, 3, 7, DirectStrategy::Mis);
+    let a = one.film.to_rgb_f32();
+    let b = many.film.to_rgb_f32();
+    assert!(
+        a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
+        "images differ"
+    );
+    assert_eq!(one.rays, many.rays);
+    assert_eq!(one.nonfinite.count, 0);
+    assert!(a.iter().any(|&x| x > 0.0));
+}
+
+#[test]
+fn colour_bleeds_from_the_walls() {
+    // Light reflected off the red wall tints the white floor next to it, and
+    // the green wall the floor on the other side: the floor's red/green
+    // ratio (warm light: above 1 everywhere) is clearly higher by the red wall.
+    let scene = cornell();
+    let out = render_box(
+        &scene,
+        Backend::default_backend(),
+        64,
+        32,
+        0,
+        16,
+        DirectStrategy::Mis,
+    );
+    let f = &out.film;
+    // floor strips next to each wall, lower part of the image
+    let strip = |x0: u32, x1: u32| {
+        let mut c = Vec3::ZERO;
+        for y in 54..60 {
+            for x in x0..x1 {
+                c += f.mean(x, y);
+            }
+        }
+        c
+    };
+    let near_red = strip(9, 13);
+    let near_green = strip(51, 55);
+    let ratio_red = near_red.x / near_red.y;
+    let ratio_green = near_green.x / near_green.y;
+    eprintln!("floor red/green: {ratio_red} by the red wall, {ratio_green} by the green wall");
+    assert!(
+        ratio_red > 1.5 * ratio_green,
+        "no colour bleeding: {near_red} vs {near_green}"
+    );
+}
+
+#[test]
+fn direct_strategies_converge_to_the_same_image() {
+    // Image means under mis, light and bsdf with standard errors from the
+    // per-pixel variance; pairwise z within a Sidak band over 3 pairs x 3
+    // channels, and per-pixel agreement for all but a Sidak-sized fraction.
+    let scene = cornell();
+    let backend = Backend::default_backend();
+    let res = 24;
+    let outs: Vec<(DirectStrategy, RenderOutput)> = [
+        DirectStrategy::Mis,
+        DirectStrategy::Light,
+        DirectStrategy::Bsdf,
+    ]
+    .into_iter()
+    .map(|d| (d, render_box(&scene, backend, res, 256, 0, 8, d)))
+    .collect();
+    let stats = |o: &RenderOutput| {
+        let (mut m, mut v) = (Vec3::ZERO.as_dvec3(), Vec3::ZERO.as_dvec3());
+        for y in 0..res {
+            for x in 0..res {
+                m += o.film.mean(x, y).as_dvec3();
+                v += o.film.variance_of_mean(x, y).as_dvec3();
+            }
+        }
+        let n = (res * res) as f64;
+        (m / n, v / (n * n))
+    };
+    let z = 5.3; // Sidak over 9 comparisons at alpha 1e-6 rounds to 5.3
+    for i in 0..outs.len() {
+        for j in i + 1..outs.len() {
+            let (ma, va) = stats(&outs[i].1);
+            let (mb, vb) = stats(&outs[j].1);
+            for c in 0..3 {
+                let se = (va[c] + vb[c]).sqrt();
+                assert!(
+                    (ma[c] - mb[c]).abs() < z * se,
+                    "{} vs {} channel {c}: {} vs {} (se {se})",
+                    outs[i].0,
+                    outs[j].0,
+                    ma[c],
+                    mb[c]
+                );
+            }
+        }
+    }
+}
+
+fn adjacent(scene: &Scene, a: u32, b: u32) -> bool {
+    let ta = scene.indices[a as usize];
+    let tb = scene.indices[b as usize];
+    let pa = ta.map(|i| scene.positions[i as usize]);
+    let pb = tb.map(|i| scene.positions[i as usize]);
+    pa.iter().filter(|p| pb.contains(p)).count() >= 1
+}
+
+#[test]
+fn embree_and_naive_agree_on_cornell_box_rays() {
+    let backends = Backend::available();
+    if !backends.contains(&Backend::Embree) {
+        eprintln!("built without Embree: nothing to compare");
+        return;
+    }
+    let scene = cornell();
+    let e = accel::build(Backend::Embree, scene.soup(), AccelOptions::default()).unwrap();
+    let n = accel::build(Backend::Naive, scene.soup(), AccelOptions::default()).unwrap();
+    let camera = Camera::new(&scene.camera, 64, 64);
+    let mut rays: Vec<Ray> = Vec::new();
+    for y in 0..64 {
+        for x in 0..64 {
+            rays.push(camera.generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5)));
+        }
+    }
+    let mut s = Sampler::new(11, 0, 0);
+    for _ in 0..20_000 {
+        let o = Vec3::new(
+            s.next_1d() * 1.98 - 0.99,
+            s.next_1d() * 1.98 + 0.01,
+            s.next_1d() * 1.98 - 0.99,
+        );
+        let d = embertrace::sampling::square_to_uniform_sphere(s.next_2d());
+        let mut r = Ray::new(o, d);
+        if s.next_1d() < 0.3 {
+            r.t_max = s.next_1d() * 2.0;
+        }
+        rays.push(r);
+    }
+    let (mut prim_diff, mut t_diff) = (0, 0);
+    for r in &rays {
+        let (he, hn) = (e.intersect(r), n.intersect(r));
+        assert_eq!(
+            he.is_some(),
+            hn.is_some(),
+            "hit/miss disagree on {r:?}: {he:?} vs {hn:?}"
+        );
+        assert_eq!(e.occluded(r), n.occluded(r), "occlusion disagrees on {r:?}");
+        if let (Some(a), Some(b)) = (he, hn) {
+            if (a.t - b.t).abs() > 1e-5 * a.t.max(1.0) {
+                t_diff += 1;
+            }
+            if a.prim != b.prim {
+                assert!(
+                    adjacent(&scene, a.prim, b.prim),
+                    "{r:?}: prims {} and {} not adjacent",
+                    a.prim,
+                    b.prim
+                );
+                prim_diff += 1;
+            }
+        }
+    }
+    assert_eq!(t_diff, 0, "distance disagreements");
+    eprintln!(
+        "{} rays: {prim_diff} primitive differences across shared edges",
+        rays.len()
+    );
+}
+
+#[test]
+fn occluded_matches_intersect() {
+    let scene = cornell();
+    for backend in Backend::available() {
+        let acc: Box<dyn Accelerator> =
+            accel::build(backend, scene.soup(), AccelOptions::default()).unwrap();
+        let mut s = Sampler::new(12, 0, 0);
+        for _ in 0..5000 {
+            let o = Vec3::new(
+                s.next_1d() * 1.9 - 0.95,
+                s.next_1d() * 1.9 + 0.05,
+                s.next_1d() * 1.9 - 0.95,
+            );
+            let mut r = Ray::new(
+                o,
+                embertrace::sampling::square_to_uniform_sphere(s.next_2d()),
+            );
+            r.t_max = s.next_1d() * 3.0;
+            assert_eq!(
+                acc.occluded(&r),
+                acc.intersect(&r).is_some(),
+                "{backend}: {r:?}"
+            );
+        }
+    }
+}
