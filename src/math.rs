@@ -187,7 +187,7 @@ pub fn spawn_ray_to(from: &SurfacePoint, to: &SurfacePoint) -> Ray {
     let pt = offset_ray_origin(to, pf - to.p);
     let delta = pt - pf;
     let dist = delta.length();
-    if !(dist > 0.0) || !dist.is_finite() {
+    if dist.is_nan() || dist <= 0.0 || !dist.is_finite() {
         return Ray {
             o: pf,
             d: from.n,
