@@ -154,18 +154,20 @@ impl SurfacePoint {
 
 /// The origin for a ray leaving `sp` in direction `w`: pushed along the
 /// geometric normal, to the side `w` points to, just past the error box of the
-/// point, then rounded one ulp further out.
+/// point, then rounded one ulp further out on every axis the normal has a
+/// component along. The ulp step is taken even when the error bound is zero
+/// (a point on an axis-aligned plane through 0 is exact): the origin then
+/// lies strictly off the plane, so no backend can report the source surface
+/// at `t = 0`, whatever its `tnear` rule.
 pub fn offset_ray_origin(sp: &SurfacePoint, w: Vec3) -> Vec3 {
     let d = sp.n.abs().dot(sp.p_err);
-    let mut offset = d * sp.n;
-    if w.dot(sp.n) < 0.0 {
-        offset = -offset;
-    }
-    let mut po = sp.p + offset;
+    let side = if w.dot(sp.n) < 0.0 { -1.0 } else { 1.0 };
+    let dir = side * sp.n;
+    let mut po = sp.p + d * dir;
     for i in 0..3 {
-        if offset[i] > 0.0 {
+        if dir[i] > 0.0 {
             po[i] = next_float_up(po[i]);
-        } else if offset[i] < 0.0 {
+        } else if dir[i] < 0.0 {
             po[i] = next_float_down(po[i]);
         }
     }
@@ -229,10 +231,16 @@ mod tests {
     fn check_frame(n: Vec3) {
         let f = Frame::from_normal(n);
         for (a, b) in [(f.s, f.t), (f.s, f.n), (f.t, f.n)] {
-            assert!(a.as_dvec3().dot(b.as_dvec3()).abs() < 1e-6, "{n:?}: not orthogonal");
+            assert!(
+                a.as_dvec3().dot(b.as_dvec3()).abs() < 1e-6,
+                "{n:?}: not orthogonal"
+            );
         }
         for v in [f.s, f.t, f.n] {
-            assert!(((v.as_dvec3().length()) - 1.0).abs() < 1e-6, "{n:?}: not unit");
+            assert!(
+                ((v.as_dvec3().length()) - 1.0).abs() < 1e-6,
+                "{n:?}: not unit"
+            );
             assert!(v.is_finite());
         }
         // right-handed: s x t = n
@@ -251,7 +259,9 @@ mod tests {
         let mut s = 1u64;
         for _ in 0..10_000 {
             let mut r = || {
-                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 ((s >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
             };
             let v = Vec3::new(r(), r(), r());
@@ -297,6 +307,14 @@ mod tests {
         assert!(up.z - sp.p.z > sp.p_err.z, "up offset too small");
         assert!(sp.p.z - down.z > sp.p_err.z, "down offset too small");
         assert!(up.z - 1e4 <= min_gap(1e4 + 1.0));
+        // an exact point (zero error bound) still leaves its plane
+        let exact = SurfacePoint {
+            p: Vec3::new(0.3, 0.2, 0.0),
+            p_err: Vec3::ZERO,
+            n: Vec3::Z,
+        };
+        assert!(offset_ray_origin(&exact, Vec3::Z).z > 0.0);
+        assert!(offset_ray_origin(&exact, -Vec3::Z).z < 0.0);
     }
 
     #[test]
