@@ -5,19 +5,21 @@
 //! sampling, BSDFs, lights, the estimator, the film and image files) is Rust.
 #![deny(unsafe_op_in_unsafe_fn)]
 #![warn(missing_docs)]
+// `!(x > 0.0)` is the deliberate NaN-rejecting form throughout.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod accel;
 pub mod error;
 pub mod math;
 
 pub use error::{Error, Result};
-pub mod sampler;
-pub mod sampling;
-pub mod scene;
 pub mod bsdf;
 pub mod camera;
+pub mod film;
 pub mod integrator;
 pub mod light;
 pub mod render;
 pub mod report;
-pub mod film;
+pub mod sampler;
+pub mod sampling;
+pub mod scene;

@@ -131,7 +131,9 @@ impl RenderReport {
 
     /// Pretty JSON.
     pub fn to_json(&self) -> String {
-        serde_json::to_string_pretty(self).expect("a report of plain numbers and strings serialises") + "\n"
+        serde_json::to_string_pretty(self)
+            .expect("a report of plain numbers and strings serialises")
+            + "\n"
     }
 
     /// Key/value pairs for image metadata (EXR header attributes).
@@ -140,18 +142,27 @@ impl RenderReport {
             ("embertrace.spp".into(), self.spp.to_string()),
             ("embertrace.seed".into(), self.seed.to_string()),
             ("embertrace.backend".into(), self.backend.clone()),
-            ("embertrace.render_seconds".into(), format!("{:.6}", self.render_seconds)),
+            (
+                "embertrace.render_seconds".into(),
+                format!("{:.6}", self.render_seconds),
+            ),
             ("embertrace.max_depth".into(), self.max_depth.to_string()),
             ("embertrace.direct".into(), self.direct.clone()),
             ("embertrace.scene".into(), self.scene.clone()),
-            ("embertrace.version".into(), env!("CARGO_PKG_VERSION").to_string()),
+            (
+                "embertrace.version".into(),
+                env!("CARGO_PKG_VERSION").to_string(),
+            ),
         ]
     }
 }
 
 /// Fail early if a report could not be written to `path`.
 pub fn check_report_path(path: &Path) -> Result<()> {
-    let parent = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let parent = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
     if !parent.is_dir() {
         return Err(Error::Settings(format!(
             "{}: directory {} does not exist",
@@ -160,7 +171,10 @@ pub fn check_report_path(path: &Path) -> Result<()> {
         )));
     }
     if path.is_dir() {
-        return Err(Error::Settings(format!("{}: is a directory, expected a file", path.display())));
+        return Err(Error::Settings(format!(
+            "{}: is a directory, expected a file",
+            path.display()
+        )));
     }
     Ok(())
 }

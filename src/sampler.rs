@@ -72,8 +72,14 @@ mod tests {
 
     #[test]
     fn streams_are_reproducible_and_distinct() {
-        let a: Vec<u32> = (0..8).map(|_| 0).scan(Sampler::new(1, 2, 3), |s, _: u32| Some(s.next_u32())).collect();
-        let b: Vec<u32> = (0..8).map(|_| 0).scan(Sampler::new(1, 2, 3), |s, _: u32| Some(s.next_u32())).collect();
+        let a: Vec<u32> = (0..8)
+            .map(|_| 0)
+            .scan(Sampler::new(1, 2, 3), |s, _: u32| Some(s.next_u32()))
+            .collect();
+        let b: Vec<u32> = (0..8)
+            .map(|_| 0)
+            .scan(Sampler::new(1, 2, 3), |s, _: u32| Some(s.next_u32()))
+            .collect();
         assert_eq!(a, b);
         for (seed, px, sm) in [(0, 2, 3), (1, 3, 3), (1, 2, 4)] {
             let mut s = Sampler::new(seed, px, sm);

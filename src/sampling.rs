@@ -22,7 +22,11 @@ pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
 
 /// Density of [`square_to_concentric_disk`] with respect to area.
 pub fn square_to_concentric_disk_pdf(p: Vec2) -> f32 {
-    if p.length_squared() <= 1.0 { FRAC_1_PI } else { 0.0 }
+    if p.length_squared() <= 1.0 {
+        FRAC_1_PI
+    } else {
+        0.0
+    }
 }
 
 /// Cosine-weighted direction on the hemisphere around +z (Malley's method).
@@ -157,7 +161,10 @@ mod tests {
             for &b in &EXTREMES {
                 let u = Vec2::new(a, b);
                 let w = square_to_cosine_hemisphere(u);
-                assert!(w.is_finite() && (w.length() - 1.0).abs() < 1e-5, "{u:?} -> {w:?}");
+                assert!(
+                    w.is_finite() && (w.length() - 1.0).abs() < 1e-5,
+                    "{u:?} -> {w:?}"
+                );
                 assert!(w.z >= 0.0);
                 let pdf = square_to_cosine_hemisphere_pdf(w);
                 assert!(pdf.is_finite() && pdf >= 0.0);

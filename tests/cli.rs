@@ -1,4 +1,4 @@
-//! Bad input gets a clear one-line error naming the file (and line where
+//! The command line. Bad input gets a clear one-line error naming the file (and line where
 //! known), a non-zero exit, no panic, and no output file left behind
 //! (`../shared/docs/hard-cases.md`, section E, case 27).
 
@@ -298,4 +298,38 @@ fn classic_command_line_renders() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("environment"), "{stderr}");
     assert!(report["mean_rgb"][0].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn exr_output_carries_render_metadata() {
+    let dir = tempfile::tempdir().unwrap();
+    setup(dir.path(), &[("m.obj", GOOD_OBJ.into())]);
+    let out = run(
+        dir.path(),
+        &[
+            "render", "m.obj", "-s", "3", "--seed", "9", "-r", "8", "6", "-o", "out.exr", "-q",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        out.stderr.is_empty(),
+        "-q printed {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (w, h, rgb) = embertrace::film::read_exr(&dir.path().join("out.exr")).unwrap();
+    assert_eq!((w, h, rgb.len()), (8, 6, 8 * 6 * 3));
+    let meta = embertrace::film::read_exr_metadata(&dir.path().join("out.exr")).unwrap();
+    let get = |k: &str| meta.iter().find(|(n, _)| n == k).map(|(_, v)| v.clone());
+    assert_eq!(get("embertrace.spp").as_deref(), Some("3"));
+    assert_eq!(get("embertrace.seed").as_deref(), Some("9"));
+    assert_eq!(
+        get("embertrace.backend").as_deref(),
+        Some(embertrace::accel::Backend::default_backend().name())
+    );
+    let secs: f64 = get("embertrace.render_seconds").unwrap().parse().unwrap();
+    assert!(secs > 0.0);
 }

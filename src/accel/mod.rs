@@ -20,7 +20,7 @@ pub mod triangle;
 #[cfg(any(feature = "embree", feature = "embree4"))]
 pub mod embree;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::math::{Ray, Vec3};
 use std::fmt;
 use std::str::FromStr;
@@ -141,7 +141,7 @@ fn build_embree(soup: TriangleSoup<'_>, options: AccelOptions) -> Result<Box<dyn
 
 #[cfg(not(any(feature = "embree", feature = "embree4")))]
 fn build_embree(_: TriangleSoup<'_>, _: AccelOptions) -> Result<Box<dyn Accelerator>> {
-    Err(Error::Settings(
+    Err(crate::error::Error::Settings(
         "this binary was built without Embree (--no-default-features); use --accel naive"
             .to_string(),
     ))

@@ -75,7 +75,8 @@ impl WatertightRay {
         let mut v = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
         if u == 0.0 || v == 0.0 || w == 0.0 {
-            let f = |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
+            let f =
+                |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
             u = f(cx, by, cy, bx);
             v = f(ax, cy, ay, cx);
             w = f(bx, ay, by, ax);
@@ -131,7 +132,10 @@ mod tests {
         assert!((h.u - 0.25).abs() < 1e-6 && (h.v - 0.25).abs() < 1e-6);
         // both faces are hit (no culling)
         let r = ray(Vec3::new(0.25, 0.25, -1.0), Vec3::Z);
-        assert!(r.intersect(Vec3::ZERO, Vec3::X, Vec3::Y, f32::INFINITY).is_some());
+        assert!(
+            r.intersect(Vec3::ZERO, Vec3::X, Vec3::Y, f32::INFINITY)
+                .is_some()
+        );
     }
 
     #[test]
@@ -140,14 +144,23 @@ mod tests {
         assert!(r.intersect(Vec3::ZERO, Vec3::X, Vec3::Y, 0.999).is_none());
         assert!(r.intersect(Vec3::ZERO, Vec3::X, Vec3::Y, 1.0).is_some());
         let r = ray(Vec3::new(0.25, 0.25, 1.0), Vec3::Z);
-        assert!(r.intersect(Vec3::ZERO, Vec3::X, Vec3::Y, f32::INFINITY).is_none());
+        assert!(
+            r.intersect(Vec3::ZERO, Vec3::X, Vec3::Y, f32::INFINITY)
+                .is_none()
+        );
     }
 
     #[test]
     fn degenerate_triangles_never_hit() {
         let r = ray(Vec3::new(0.5, 0.0, 1.0), -Vec3::Z);
-        assert!(r.intersect(Vec3::ZERO, Vec3::X, 2.0 * Vec3::X, f32::INFINITY).is_none());
-        assert!(r.intersect(Vec3::ZERO, Vec3::ZERO, Vec3::X, f32::INFINITY).is_none());
+        assert!(
+            r.intersect(Vec3::ZERO, Vec3::X, 2.0 * Vec3::X, f32::INFINITY)
+                .is_none()
+        );
+        assert!(
+            r.intersect(Vec3::ZERO, Vec3::ZERO, Vec3::X, f32::INFINITY)
+                .is_none()
+        );
         let nan = Vec3::new(f32::NAN, 0.0, 0.0);
         assert!(r.intersect(nan, Vec3::X, Vec3::Y, f32::INFINITY).is_none());
     }

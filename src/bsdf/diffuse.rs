@@ -71,7 +71,10 @@ mod tests {
             assert!((bs.pdf - b.pdf(wo, bs.wi)).abs() <= 1e-5 * bs.pdf);
             assert!((bs.f - b.eval(wo, bs.wi)).abs().max_element() <= 1e-6);
             let w = bs.weight();
-            assert!((w - b.albedo).abs().max_element() < 1e-5 * 4.0, "weight {w}");
+            assert!(
+                (w - b.albedo).abs().max_element() < 1e-5 * 4.0,
+                "weight {w}"
+            );
         }
     }
 

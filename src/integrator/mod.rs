@@ -52,7 +52,9 @@ impl FromStr for DirectStrategy {
             "mis" => Ok(DirectStrategy::Mis),
             "light" => Ok(DirectStrategy::Light),
             "bsdf" => Ok(DirectStrategy::Bsdf),
-            _ => Err(format!("unknown direct strategy `{s}` (expected mis, light or bsdf)")),
+            _ => Err(format!(
+                "unknown direct strategy `{s}` (expected mis, light or bsdf)"
+            )),
         }
     }
 }

@@ -6,9 +6,11 @@
 //! `r^2 / |cos theta_l|`, or a uniform direction for the environment.
 //! Emitters with zero area or zero radiance get probability zero.
 
-use crate::math::{SurfacePoint, Vec2, Vec3, luminance, spawn_ray, spawn_ray_to};
 use crate::math::Ray;
-use crate::sampling::{Discrete, square_to_uniform_sphere, square_to_uniform_sphere_pdf, square_to_uniform_triangle};
+use crate::math::{SurfacePoint, Vec2, Vec3, luminance, spawn_ray, spawn_ray_to};
+use crate::sampling::{
+    Discrete, square_to_uniform_sphere, square_to_uniform_sphere_pdf, square_to_uniform_triangle,
+};
 use crate::scene::Scene;
 use std::f32::consts::PI;
 
@@ -128,7 +130,13 @@ impl Lights {
 
     /// Sample a light as seen from `from`, with `u_select` choosing the light
     /// and `u` the point on it.
-    pub fn sample(&self, scene: &Scene, from: &SurfacePoint, u_select: f32, u: Vec2) -> Option<LightSample> {
+    pub fn sample(
+        &self,
+        scene: &Scene,
+        from: &SurfacePoint,
+        u_select: f32,
+        u: Vec2,
+    ) -> Option<LightSample> {
         let chosen = self.select.sample(u_select)?;
         if chosen.index == self.area.len() {
             let env = self.environment?;

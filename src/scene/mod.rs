@@ -126,7 +126,11 @@ impl Scene {
     pub fn load(path: &Path) -> Result<Scene> {
         let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
         if meta.is_dir() {
-            return Err(Error::input(path, None, "is a directory, expected a scene file"));
+            return Err(Error::input(
+                path,
+                None,
+                "is a directory, expected a scene file",
+            ));
         }
         let ext = path
             .extension()

@@ -108,7 +108,10 @@ fn convert_material(m: &tobj::Material, libs: &[PathBuf], obj: &Path) -> Result<
         return Err(Error::input(
             file,
             None,
-            format!("material `{}`: Kd must be at most 1 (energy conservation), got {albedo}", m.name),
+            format!(
+                "material `{}`: Kd must be at most 1 (energy conservation), got {albedo}",
+                m.name
+            ),
         ));
     }
     Ok(Material {
@@ -137,7 +140,11 @@ fn validate(path: &Path, text: &str) -> Result<Vec<PathBuf>> {
             Some("v") => {
                 let coords: Vec<&str> = words.collect();
                 if coords.len() < 3 {
-                    return Err(Error::input(path, line_no, "expected three coordinates after `v`"));
+                    return Err(Error::input(
+                        path,
+                        line_no,
+                        "expected three coordinates after `v`",
+                    ));
                 }
                 for c in &coords[..3] {
                     match c.parse::<f32>() {
@@ -146,7 +153,9 @@ fn validate(path: &Path, text: &str) -> Result<Vec<PathBuf>> {
                             return Err(Error::input(
                                 path,
                                 line_no,
-                                format!("vertex coordinate `{c}` is not finite (expected a finite number)"),
+                                format!(
+                                    "vertex coordinate `{c}` is not finite (expected a finite number)"
+                                ),
                             ));
                         }
                         Err(_) => {
@@ -163,7 +172,11 @@ fn validate(path: &Path, text: &str) -> Result<Vec<PathBuf>> {
             Some("f") => {
                 let verts: Vec<&str> = words.collect();
                 if verts.len() < 3 {
-                    return Err(Error::input(path, line_no, "a face needs at least three vertices"));
+                    return Err(Error::input(
+                        path,
+                        line_no,
+                        "a face needs at least three vertices",
+                    ));
                 }
                 for v in verts {
                     let first = v.split('/').next().unwrap_or("");
@@ -183,7 +196,9 @@ fn validate(path: &Path, text: &str) -> Result<Vec<PathBuf>> {
                         return Err(Error::input(
                             path,
                             line_no,
-                            format!("face index {i} out of range (the file has {total_vertices} vertices)"),
+                            format!(
+                                "face index {i} out of range (the file has {total_vertices} vertices)"
+                            ),
                         ));
                     }
                 }
@@ -208,12 +223,14 @@ pub fn load_bare(path: &Path) -> Result<Scene> {
     b.add_mesh(mesh, &Transform::default());
     let mut scene = b.build();
     scene.camera = Scene::framing_camera(&scene.bounds());
-    scene.notes.push("camera framed automatically from the mesh bounds".to_string());
+    scene
+        .notes
+        .push("camera framed automatically from the mesh bounds".to_string());
     if !scene.has_emitters() {
         scene.environment = Some(Vec3::ONE);
-        scene
-            .notes
-            .push("no emitters in the mesh: lighting it with a uniform white environment".to_string());
+        scene.notes.push(
+            "no emitters in the mesh: lighting it with a uniform white environment".to_string(),
+        );
     }
     Ok(scene)
 }

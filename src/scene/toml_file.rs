@@ -33,8 +33,8 @@ use super::{
 };
 use crate::error::{Error, Result};
 use crate::math::Vec3;
-use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
+use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use std::fmt;
 use std::path::Path;
 
@@ -156,7 +156,11 @@ impl<'de> Deserialize<'de> for Rgb {
 
 /// Line (1-based) of byte `offset` in `text`.
 fn line_of(text: &str, offset: usize) -> usize {
-    text[..offset.min(text.len())].bytes().filter(|&b| b == b'\n').count() + 1
+    text[..offset.min(text.len())]
+        .bytes()
+        .filter(|&b| b == b'\n')
+        .count()
+        + 1
 }
 
 /// Line of the `index`-th `[[table]]` header named `name`, for messages.
@@ -173,14 +177,22 @@ fn check_vec(path: &Path, line: Option<usize>, what: &str, v: Vec3) -> Result<Ve
     if v.is_finite() {
         Ok(v)
     } else {
-        Err(Error::input(path, line, format!("{what} must be finite, got {v}")))
+        Err(Error::input(
+            path,
+            line,
+            format!("{what} must be finite, got {v}"),
+        ))
     }
 }
 
 fn check_colour(path: &Path, line: Option<usize>, what: &str, c: Rgb) -> Result<Vec3> {
     let v = check_vec(path, line, what, c.0)?;
     if v.min_element() < 0.0 {
-        return Err(Error::input(path, line, format!("{what} must be non-negative, got {v}")));
+        return Err(Error::input(
+            path,
+            line,
+            format!("{what} must be non-negative, got {v}"),
+        ));
     }
     Ok(v)
 }
@@ -215,7 +227,10 @@ pub fn load(path: &Path) -> Result<Scene> {
             return Err(Error::input(
                 path,
                 line,
-                format!("mesh file `{}` not found (expected a file next to the scene)", m.file),
+                format!(
+                    "mesh file `{}` not found (expected a file next to the scene)",
+                    m.file
+                ),
             ));
         }
         let mut mesh = load_obj_mesh(&mesh_path)?;
@@ -247,11 +262,20 @@ pub fn load(path: &Path) -> Result<Scene> {
                 if transform.scale.min_element().abs() == 0.0
                     || transform.scale.x * transform.scale.y * transform.scale.z == 0.0
                 {
-                    return Err(Error::input(path, line, "transform.scale must be non-zero on every axis"));
+                    return Err(Error::input(
+                        path,
+                        line,
+                        "transform.scale must be non-zero on every axis",
+                    ));
                 }
             }
             if let Some(r) = t.rotate {
-                let axis = check_vec(path, line, "transform.rotate axis", Vec3::new(r[0], r[1], r[2]))?;
+                let axis = check_vec(
+                    path,
+                    line,
+                    "transform.rotate axis",
+                    Vec3::new(r[0], r[1], r[2]),
+                )?;
                 if axis.length() == 0.0 || !r[3].is_finite() {
                     return Err(Error::input(
                         path,
@@ -291,8 +315,16 @@ pub fn load(path: &Path) -> Result<Scene> {
 
     if let Some(f) = &file.film {
         let [w, h] = f.resolution;
-        if w == 0 || h == 0 || w > MAX_RESOLUTION as u64 || h > MAX_RESOLUTION as u64 || w * h > MAX_PIXELS {
-            let line = text.lines().position(|l| l.trim_start().starts_with("resolution")).map(|n| n + 1);
+        if w == 0
+            || h == 0
+            || w > MAX_RESOLUTION as u64
+            || h > MAX_RESOLUTION as u64
+            || w * h > MAX_PIXELS
+        {
+            let line = text
+                .lines()
+                .position(|l| l.trim_start().starts_with("resolution"))
+                .map(|n| n + 1);
             return Err(Error::input(
                 path,
                 line,
@@ -313,7 +345,10 @@ pub fn load(path: &Path) -> Result<Scene> {
     scene.render = render;
     match &file.camera {
         Some(c) => {
-            let line = text.lines().position(|l| l.trim() == "[camera]").map(|n| n + 1);
+            let line = text
+                .lines()
+                .position(|l| l.trim() == "[camera]")
+                .map(|n| n + 1);
             let origin = check_vec(path, line, "camera.origin", Vec3::from(c.origin))?;
             let target = check_vec(path, line, "camera.target", Vec3::from(c.target))?;
             let up = check_vec(path, line, "camera.up", Vec3::from(c.up))?;

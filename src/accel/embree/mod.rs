@@ -1,0 +1,199 @@
+//! The Intel Embree backend, and the only `unsafe` code in the crate.
+//!
+//! Embree (Wald, Woop, Benthin, Johnson, Ernst, "Embree: A Kernel Framework
+//! for Efficient CPU Ray Tracing", ACM TOG 33(4), 2014) answers the two ray
+//! queries of [`Accelerator`] over one triangle mesh. API reference:
+//! <https://github.com/RenderKit/embree/blob/v3.13.5/doc/src/api.md> (Embree
+//! 3, the default `embree` feature) and
+//! <https://github.com/RenderKit/embree/blob/master/doc/src/api.md> (Embree 4,
+//! the `embree4` feature).
+//!
+//! Layout:
+//! - `sys`: raw bindings (bindgen at build time for Embree 3, `embree4-sys`
+//!   for Embree 4) plus the C macros and inline functions written in Rust;
+//! - `shim`: `rtcIntersect1` / `rtcOccluded1`, the only calls whose
+//!   signatures differ between Embree 3 and 4;
+//! - `device`, `scene`: RAII owners of `RTCDevice` and `RTCScene` (handles in
+//!   `NonNull`, released in `Drop`; a scene owns its device and releases its
+//!   own handle first, and a geometry under construction borrows the device,
+//!   so no handle outlives its device) and the conversion of Embree's error
+//!   callback into [`Error::Backend`](crate::Error::Backend);
+//! - [`EmbreeAccel`]: the safe, `Send + Sync` accelerator.
+//!
+//! Hit meaning: the crate's convention is `0 < t <= t_max`; Embree reports
+//! hits with `tnear <= t <= tfar` in robust mode (the Plücker test) but
+//! `tnear < t <= tfar` in fast mode (the Möller-Trumbore test). With
+//! `tnear = 0`, robust mode therefore reports hits at exactly `t == 0`: a ray
+//! whose origin lies on a triangle (which the offset policy of
+//! [`crate::math::offset_ray_origin`] produces whenever the error bound
+//! projects to zero, e.g. on the plane `z = 0`) is "occluded" by its own
+//! surface. Rays therefore go in with `tnear` = the smallest positive `f32`
+//! (`TNEAR`), for which `tnear <= t` means exactly `t > 0` as long as the
+//! calling thread does not set the denormals-are-zero flag (Rust never does,
+//! and Embree sets it only on its own build threads), and `tfar = ray.t_max`. Rays with `t_max == 0`
+//! never reach Embree: their hit range is empty.
+
+mod device;
+mod scene;
+mod shim;
+mod sys;
+
+#[cfg(test)]
+mod tests;
+
+use self::device::Device;
+use self::scene::Scene;
+use super::{AccelOptions, Accelerator, Hit, TriangleSoup};
+use crate::error::Result;
+use crate::math::Ray;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+// Embree requires 16-byte aligned single rays; the generated structs carry
+// `align(16)` from `RTC_ALIGN(16)` in the header. Checked for both bindings.
+const _: () = assert!(align_of::<sys::RTCRayHit>() >= 16 && align_of::<sys::RTCRay>() >= 16);
+
+/// Ray queries answered by Intel Embree over one triangle mesh.
+///
+/// Built once from a [`TriangleSoup`] (Embree keeps its own copy of the
+/// vertices and indices), then queried from any number of threads.
+#[derive(Debug)]
+pub struct EmbreeAccel {
+    scene: Scene,
+    skipped_nonfinite: AtomicU64,
+}
+
+// SAFETY: after `new` returns, the Embree handles inside are used only for
+// `rtcIntersect1`/`rtcOccluded1` on a committed, never again modified scene
+// (Embree allows those queries from many threads concurrently; its
+// `rtcCommitScene` page requires only that modification, commit and tracing
+// never overlap, which the absence of any `&mut` method here guarantees) and
+// for release in `Drop`, which owns the value. Embree handles are not tied to
+// the thread that created them. The device's error state is behind a `Mutex`.
+unsafe impl Send for EmbreeAccel {}
+// SAFETY: see `Send`: every `&self` method only queries the committed scene.
+unsafe impl Sync for EmbreeAccel {}
+
+impl EmbreeAccel {
+    /// Build the scene over `soup` on a device with Embree's default
+    /// configuration.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::Backend`](crate::Error::Backend) when a triangle names a
+    /// vertex past the end of `soup.positions`, or when Embree reports an
+    /// error (out of memory, unsupported CPU, ...).
+    pub fn new(soup: TriangleSoup<'_>, options: AccelOptions) -> Result<Self> {
+        Self::with_device_config(soup, options, "")
+    }
+
+    /// Build the scene over `soup` on a device created with Embree's
+    /// configuration string `config` (`rtcNewDevice`): empty for the
+    /// defaults, or for example `"threads=1,isa=sse4.2"` to pin the build
+    /// thread count and instruction set for reproducible CI runs.
+    ///
+    /// # Errors
+    ///
+    /// As [`EmbreeAccel::new`], plus [`Error::Settings`](crate::Error::Settings)
+    /// for a `config` containing a NUL byte and
+    /// [`Error::Backend`](crate::Error::Backend) for one Embree rejects.
+    pub fn with_device_config(
+        soup: TriangleSoup<'_>,
+        options: AccelOptions,
+        config: &str,
+    ) -> Result<Self> {
+        let device = Device::new(config)?;
+        let scene = Scene::build(device, soup, options)?;
+        Ok(EmbreeAccel {
+            scene,
+            skipped_nonfinite: AtomicU64::new(0),
+        })
+    }
+
+    /// How many rays with a non-finite origin, direction or extent were
+    /// answered with a miss instead of being sent to Embree (release builds;
+    /// debug builds panic on them instead).
+    pub fn skipped_nonfinite_rays(&self) -> u64 {
+        self.skipped_nonfinite.load(Ordering::Relaxed)
+    }
+
+    /// Whether `ray` should go to Embree. Non-finite rays must not cross the
+    /// FFI boundary: they trip a `debug_assert!`, and in release builds are
+    /// counted and answered as misses. Rays with `t_max == 0` have an empty
+    /// hit range `0 < t <= 0`.
+    fn accepts(&self, ray: &Ray) -> bool {
+        debug_assert!(ray.is_finite(), "non-finite ray sent to Embree: {ray:?}");
+        if !ray.is_finite() {
+            self.skipped_nonfinite.fetch_add(1, Ordering::Relaxed);
+            return false;
+        }
+        ray.t_max > 0.0
+    }
+}
+
+/// `tnear` of every ray: the smallest positive `f32` (a subnormal), so that
+/// Embree's `tnear <= t` accepts exactly the hits with `t > 0` (see the
+/// module header); `0.0` would let robust mode report hits at `t == 0`.
+const TNEAR: f32 = f32::from_bits(1);
+
+/// Embree's single ray for `ray`: `[TNEAR, t_max]`, all mask bits set (a mask
+/// of 0 would silently miss every geometry), time 0.
+fn to_rtc_ray(ray: &Ray) -> sys::RTCRay {
+    sys::RTCRay {
+        org_x: ray.o.x,
+        org_y: ray.o.y,
+        org_z: ray.o.z,
+        tnear: TNEAR,
+        dir_x: ray.d.x,
+        dir_y: ray.d.y,
+        dir_z: ray.d.z,
+        time: 0.0,
+        tfar: ray.t_max,
+        mask: u32::MAX,
+        id: 0,
+        flags: 0,
+    }
+}
+
+/// A hit record holding no hit (`geomID` and instance IDs invalid).
+fn no_hit() -> sys::RTCHit {
+    let mut hit = sys::RTCHit {
+        primID: sys::RTC_INVALID_GEOMETRY_ID,
+        geomID: sys::RTC_INVALID_GEOMETRY_ID,
+        ..Default::default()
+    };
+    hit.instID.fill(sys::RTC_INVALID_GEOMETRY_ID);
+    hit
+}
+
+impl Accelerator for EmbreeAccel {
+    fn name(&self) -> &'static str {
+        "embree"
+    }
+
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if !self.accepts(ray) {
+            return None;
+        }
+        let mut rayhit = sys::RTCRayHit {
+            ray: to_rtc_ray(ray),
+            hit: no_hit(),
+        };
+        shim::intersect1(&self.scene, &mut rayhit);
+        let hit = rayhit.hit;
+        (hit.geomID != sys::RTC_INVALID_GEOMETRY_ID).then_some(Hit {
+            t: rayhit.ray.tfar,
+            prim: hit.primID,
+            u: hit.u,
+            v: hit.v,
+        })
+    }
+
+    fn occluded(&self, ray: &Ray) -> bool {
+        if !self.accepts(ray) {
+            return false;
+        }
+        let mut rtc_ray = to_rtc_ray(ray);
+        shim::occluded1(&self.scene, &mut rtc_ray);
+        rtc_ray.tfar == f32::NEG_INFINITY
+    }
+}

@@ -1,0 +1,208 @@
+//! [`Scene`]: a committed Embree scene holding one triangle mesh, built from a
+//! [`TriangleSoup`].
+//!
+//! Embree API reference: `rtcNewScene`, `rtcSetSceneFlags`,
+//! `rtcSetSceneBuildQuality`, `rtcNewGeometry`, `rtcSetNewGeometryBuffer`,
+//! `rtcCommitGeometry`, `rtcAttachGeometry`, `rtcReleaseGeometry`,
+//! `rtcCommitScene`, `rtcReleaseScene`, and the `RTC_GEOMETRY_TYPE_TRIANGLE`
+//! page (<https://github.com/RenderKit/embree/blob/v3.13.5/doc/src/api.md>).
+
+use super::device::{Device, backend_error};
+use super::sys;
+use crate::accel::{AccelOptions, TriangleSoup};
+use crate::error::Result;
+use std::ptr::NonNull;
+
+/// Build quality of both the mesh BVH and the scene BVH. `HIGH` (spatial
+/// splits) costs build time once and pays back on every ray of a path
+/// tracer's many bounces.
+const BUILD_QUALITY: sys::RTCBuildQuality = sys::RTCBuildQuality::HIGH;
+
+/// A committed Embree scene (`RTCScene`).
+///
+/// Invariant: every `Scene` that [`Scene::build`] returns is committed and
+/// never modified again, so it may be queried from many threads at once.
+///
+/// The scene owns the [`Device`] it was created on (one device per scene), so
+/// the device cannot be dropped, moved out or released while the scene
+/// exists: `Drop` releases the scene handle, and only afterwards does the
+/// `device` field drop and release the device.
+#[derive(Debug)]
+pub(super) struct Scene {
+    handle: NonNull<sys::RTCSceneTy>,
+    device: Device,
+}
+
+impl Scene {
+    /// Build and commit a scene holding the triangles of `soup` (none is
+    /// fine: an empty scene is committed and every ray misses it).
+    pub(super) fn build(
+        device: Device,
+        soup: TriangleSoup<'_>,
+        options: AccelOptions,
+    ) -> Result<Scene> {
+        validate(soup)?;
+        // SAFETY: `device` is a live device (we own it).
+        let raw = unsafe { sys::rtcNewScene(device.raw()) };
+        let Some(handle) = NonNull::new(raw) else {
+            device.check("rtcNewScene")?;
+            return Err(backend_error("rtcNewScene returned NULL".into()));
+        };
+        // From here on `scene` owns both handles and releases them on any error.
+        let mut scene = Scene { handle, device };
+        scene.device.check("rtcNewScene")?;
+        let flags = if options.robust {
+            sys::RTCSceneFlags::ROBUST
+        } else {
+            sys::RTCSceneFlags::NONE
+        };
+        // SAFETY: `scene.handle` is a live, not yet committed scene that no
+        // other thread can see.
+        unsafe {
+            sys::rtcSetSceneFlags(scene.raw(), flags);
+            sys::rtcSetSceneBuildQuality(scene.raw(), BUILD_QUALITY);
+        }
+        scene
+            .device
+            .check("rtcSetSceneFlags/rtcSetSceneBuildQuality")?;
+        if !soup.indices.is_empty() {
+            scene.attach_triangles(soup)?;
+        }
+        // SAFETY: as above; after this call the scene is never modified again.
+        unsafe { sys::rtcCommitScene(scene.raw()) };
+        scene.device.check("rtcCommitScene")?;
+        Ok(scene)
+    }
+
+    /// The raw handle of this committed scene. Valid for as long as `self` is.
+    pub(super) fn raw(&self) -> sys::RTCScene {
+        self.handle.as_ptr()
+    }
+
+    /// Create a triangle geometry holding copies of the soup's buffers,
+    /// commit it and attach it as geometry 0 (only during [`Scene::build`],
+    /// before the commit; hence `&mut self`).
+    fn attach_triangles(&mut self, soup: TriangleSoup<'_>) -> Result<()> {
+        let device = &self.device;
+        // SAFETY: `device` is live; TRIANGLE is a valid geometry type.
+        let raw = unsafe { sys::rtcNewGeometry(device.raw(), sys::RTCGeometryType::TRIANGLE) };
+        let geometry = NonNull::new(raw).map(|handle| Geometry { handle, device });
+        device.check("rtcNewGeometry")?;
+        let geometry =
+            geometry.ok_or_else(|| backend_error("rtcNewGeometry returned NULL".into()))?;
+        // SAFETY: `geometry` is live and not yet committed or shared.
+        unsafe { sys::rtcSetGeometryBuildQuality(geometry.raw(), BUILD_QUALITY) };
+
+        let vertices = geometry.new_buffer::<[f32; 3]>(
+            sys::RTCBufferType::VERTEX,
+            sys::RTCFormat::FLOAT3,
+            soup.positions.len(),
+        )?;
+        for (i, p) in soup.positions.iter().enumerate() {
+            // SAFETY: `new_buffer` returned room for `positions.len()` aligned
+            // items of `[f32; 3]`, owned by the geometry and touched by nothing
+            // else until commit; `i` is in range. `write` never reads the
+            // (uninitialised) old contents.
+            unsafe { vertices.as_ptr().add(i).write(p.to_array()) };
+        }
+        let indices = geometry.new_buffer::<[u32; 3]>(
+            sys::RTCBufferType::INDEX,
+            sys::RTCFormat::UINT3,
+            soup.indices.len(),
+        )?;
+        // SAFETY: as for the vertices: room for `indices.len()` aligned
+        // `[u32; 3]` items that do not overlap the caller's slice.
+        unsafe {
+            std::ptr::copy_nonoverlapping(
+                soup.indices.as_ptr(),
+                indices.as_ptr(),
+                soup.indices.len(),
+            )
+        };
+
+        // SAFETY: `geometry` is live and its buffers are filled; every index
+        // is below the vertex count (checked by `validate`).
+        unsafe { sys::rtcCommitGeometry(geometry.raw()) };
+        device.check("rtcCommitGeometry")?;
+        // SAFETY: both handles are live and belong to the same device; the
+        // scene retains its own reference to the geometry, so dropping
+        // `geometry` below (rtcReleaseGeometry) leaves it attached.
+        let id = unsafe { sys::rtcAttachGeometry(self.raw(), geometry.raw()) };
+        device.check("rtcAttachGeometry")?;
+        debug_assert_eq!(id, 0, "the only geometry of a fresh scene gets ID 0");
+        Ok(())
+    }
+}
+
+impl Drop for Scene {
+    fn drop(&mut self) {
+        // SAFETY: `self.handle` is live and this is its last use; the device
+        // it came from is still alive (`self.device` drops after this).
+        unsafe { sys::rtcReleaseScene(self.raw()) };
+    }
+}
+
+/// A geometry handle under construction, released on drop (also on the error
+/// paths). It borrows its device, so it cannot outlive it.
+struct Geometry<'d> {
+    handle: NonNull<sys::RTCGeometryTy>,
+    device: &'d Device,
+}
+
+impl Geometry<'_> {
+    fn raw(&self) -> sys::RTCGeometry {
+        self.handle.as_ptr()
+    }
+
+    /// A new Embree-owned buffer of `count` items of `T` (stride
+    /// `size_of::<T>()`) in slot 0 of `kind`, checked for NULL and alignment.
+    fn new_buffer<T>(
+        &self,
+        kind: sys::RTCBufferType,
+        format: sys::RTCFormat,
+        count: usize,
+    ) -> Result<NonNull<T>> {
+        // SAFETY: `self.handle` is a live, uncommitted geometry; Embree
+        // allocates the buffer (padded for its 16-byte loads) and owns it.
+        let raw = unsafe {
+            sys::rtcSetNewGeometryBuffer(self.raw(), kind, 0, format, size_of::<T>(), count)
+        };
+        self.device.check("rtcSetNewGeometryBuffer")?;
+        let ptr = NonNull::new(raw.cast::<T>())
+            .ok_or_else(|| backend_error("rtcSetNewGeometryBuffer returned NULL".into()))?;
+        if !ptr.as_ptr().is_aligned() {
+            return Err(backend_error(format!(
+                "rtcSetNewGeometryBuffer returned a misaligned {kind:?} buffer"
+            )));
+        }
+        Ok(ptr)
+    }
+}
+
+impl Drop for Geometry<'_> {
+    fn drop(&mut self) {
+        // SAFETY: `self.handle` is live and this is our last use of it; the
+        // device is alive (borrowed for `'d`).
+        unsafe { sys::rtcReleaseGeometry(self.raw()) };
+    }
+}
+
+/// Reject soups Embree would read out of bounds or could not number: vertex
+/// indices past the vertex buffer, counts beyond Embree's 32-bit IDs.
+fn validate(soup: TriangleSoup<'_>) -> Result<()> {
+    let n = soup.positions.len();
+    if u32::try_from(n).is_err() || u32::try_from(soup.indices.len()).is_err() {
+        return Err(backend_error(format!(
+            "{n} vertices / {} triangles exceed Embree's 32-bit indices",
+            soup.indices.len()
+        )));
+    }
+    for (t, tri) in soup.indices.iter().enumerate() {
+        if let Some(&i) = tri.iter().find(|&&i| i as usize >= n) {
+            return Err(backend_error(format!(
+                "triangle {t} uses vertex {i}, but there are only {n} vertices"
+            )));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,57 @@
+//! The one place where Embree 3 and Embree 4 differ for this crate: the
+//! single-ray query signatures.
+//!
+//! - Embree 3: `rtcIntersect1(scene, RTCIntersectContext*, RTCRayHit*)` and
+//!   `rtcOccluded1(scene, RTCIntersectContext*, RTCRay*)`, with a context set
+//!   up by `rtcInitIntersectContext`.
+//! - Embree 4: `rtcIntersect1(scene, RTCRayHit*, RTCIntersectArguments*)` and
+//!   `rtcOccluded1(scene, RTCRay*, RTCOccludedArguments*)`, where NULL
+//!   arguments mean the defaults.
+//!
+//! See the `rtcIntersect1` and `rtcOccluded1` pages of the Embree 3 and 4 API
+//! references (<https://github.com/RenderKit/embree/tree/master/doc/src>).
+//! Neither call reports errors ("for performance reasons this function does
+//! not do any error checks"), so there is nothing to check afterwards.
+
+use super::scene::Scene;
+use super::sys;
+
+/// Closest hit of `rayhit.ray` in `scene`; Embree writes `rayhit.hit` and,
+/// on a hit, shortens `rayhit.ray.tfar` to the hit distance.
+#[cfg(not(feature = "embree4"))]
+pub(super) fn intersect1(scene: &Scene, rayhit: &mut sys::RTCRayHit) {
+    let mut context = sys::rtcInitIntersectContext();
+    // SAFETY: `scene.raw()` is a live committed scene (`Scene`'s invariant),
+    // which Embree allows many threads to query at once. `context` and
+    // `rayhit` are valid, exclusive for the call, and aligned (`RTCRayHit` is
+    // `align(16)` as Embree requires); Embree keeps no pointer to them.
+    unsafe { sys::rtcIntersect1(scene.raw(), &raw mut context, rayhit) }
+}
+
+/// Whether anything blocks `ray` in `scene`; Embree sets `ray.tfar` to
+/// `-inf` when it does.
+#[cfg(not(feature = "embree4"))]
+pub(super) fn occluded1(scene: &Scene, ray: &mut sys::RTCRay) {
+    let mut context = sys::rtcInitIntersectContext();
+    // SAFETY: as in `intersect1` (`RTCRay` is `align(16)` too).
+    unsafe { sys::rtcOccluded1(scene.raw(), &raw mut context, ray) }
+}
+
+/// Closest hit of `rayhit.ray` in `scene`; Embree writes `rayhit.hit` and,
+/// on a hit, shortens `rayhit.ray.tfar` to the hit distance.
+#[cfg(feature = "embree4")]
+pub(super) fn intersect1(scene: &Scene, rayhit: &mut sys::RTCRayHit) {
+    // SAFETY: `scene.raw()` is a live committed scene (`Scene`'s invariant),
+    // which Embree allows many threads to query at once. `rayhit` is valid,
+    // exclusive for the call and aligned (`RTCRayHit` is `align(16)`); NULL
+    // arguments are documented to mean the defaults.
+    unsafe { sys::rtcIntersect1(scene.raw(), rayhit, std::ptr::null_mut()) }
+}
+
+/// Whether anything blocks `ray` in `scene`; Embree sets `ray.tfar` to
+/// `-inf` when it does.
+#[cfg(feature = "embree4")]
+pub(super) fn occluded1(scene: &Scene, ray: &mut sys::RTCRay) {
+    // SAFETY: as in `intersect1` (`RTCRay` is `align(16)` too).
+    unsafe { sys::rtcOccluded1(scene.raw(), ray, std::ptr::null_mut()) }
+}
