@@ -143,11 +143,17 @@ pub struct SurfacePoint {
 
 impl SurfacePoint {
     /// The point with barycentrics `(1 - u - v, u, v)` on triangle `(p0, p1, p2)`,
-    /// with pbrt-v4's error bound for it.
+    /// with pbrt-v4's error bound for it, made isotropic (see below).
     pub fn on_triangle(p: [Vec3; 3], u: f32, v: f32, n: Vec3) -> Self {
         let b0 = 1.0 - u - v;
         let pos = b0 * p[0] + u * p[1] + v * p[2];
         let p_err = gamma(7) * ((b0 * p[0]).abs() + (u * p[1]).abs() + (v * p[2]).abs());
+        // Isotropic: every axis gets the largest per-axis bound. pbrt's
+        // per-axis bound is zero along an axis where the point is exact (on
+        // the plane y = 0, say), but a ray query's own rounding mixes the
+        // axes, so an origin one ulp off such a plane can still see it at a
+        // tiny positive t in a backend we cannot patch (Embree).
+        let p_err = Vec3::splat(p_err.max_element());
         SurfacePoint { p: pos, p_err, n }
     }
 }

@@ -5,10 +5,11 @@
 //! through a shared edge or vertex). Edge functions that come out exactly zero
 //! are recomputed in `f64`, as the paper recommends. There is no determinant
 //! epsilon: thin triangles are hit; only exactly degenerate ones (`det == 0`)
-//! are not.
+//! are not. A hit whose `t` is not conservatively positive (within the
+//! rounding-error bound of `t`, pbrt-v4 section 6.8.4) is rejected.
 
 use super::Hit;
-use crate::math::{Ray, Vec3};
+use crate::math::{Ray, Vec3, gamma};
 
 /// A ray prepared for the watertight test: the permutation and shear.
 #[derive(Debug, Clone, Copy)]
@@ -103,6 +104,23 @@ impl WatertightRay {
         let inv = 1.0 / det;
         let t = t_scaled * inv;
         if !(t > 0.0 && t <= t_max) {
+            return None;
+        }
+        // t must be conservatively greater than zero: reject hits within the
+        // rounding-error bound of t (pbrt-v4 section 6.8.4, "Bounding the
+        // triangle t"), so a ray starting on or just off a triangle never
+        // reports that triangle at a distance that is only rounding noise.
+        let max_zt = az.abs().max(bz.abs()).max(cz.abs());
+        let max_xt = ax.abs().max(bx.abs()).max(cx.abs());
+        let max_yt = ay.abs().max(by.abs()).max(cy.abs());
+        let delta_z = gamma(3) * max_zt;
+        let delta_x = gamma(5) * (max_xt + max_zt);
+        let delta_y = gamma(5) * (max_yt + max_zt);
+        let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+        let max_e = u.abs().max(v.abs()).max(w.abs());
+        let delta_t =
+            3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv.abs();
+        if t <= delta_t {
             return None;
         }
         Some(Hit {
