@@ -209,12 +209,6 @@ pub fn spawn_ray_to(from: &SurfacePoint, to: &SurfacePoint) -> Ray {
     }
 }
 
-/// A shadow ray from `from` towards a point at infinity in unit direction `d`
-/// (environment light samples).
-pub fn spawn_ray_towards(from: &SurfacePoint, d: Vec3) -> Ray {
-    spawn_ray(from, d)
-}
-
 /// Smallest gap between two parallel surfaces, at coordinates of magnitude
 /// `scale`, that a spawned ray never skips: the offset is at most
 /// `gamma(7) * 3 * scale * sqrt(3)` plus two ulps (the error box projected on
