@@ -46,6 +46,9 @@ pub trait Accelerator: Send + Sync {
     fn intersect(&self, ray: &Ray) -> Option<Hit>;
     /// Whether any hit exists with `0 < t <= ray.t_max`.
     fn occluded(&self, ray: &Ray) -> bool;
+    /// Bytes the structure holds (nodes, triangle copies; Embree: what its
+    /// memory monitor reported), for `bench`'s memory-per-triangle column.
+    fn memory_bytes(&self) -> usize;
 }
 
 /// Triangles as every backend receives them: a shared vertex buffer and one

@@ -28,6 +28,10 @@ impl Accelerator for Naive {
         "naive"
     }
 
+    fn memory_bytes(&self) -> usize {
+        self.tris.capacity() * std::mem::size_of::<[Vec3; 3]>()
+    }
+
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         if !ray.is_finite() {
             return None;

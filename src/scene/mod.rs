@@ -5,6 +5,7 @@
 //! every backend sees the same triangles.
 
 mod obj;
+pub mod procedural;
 mod toml_file;
 
 use crate::error::{Error, Result};

@@ -27,9 +27,10 @@
 //! radiance = [1.0, 1.0, 1.0]  # or one number
 //! ```
 
+use super::procedural::{self, MAX_TRIANGLES, Shape};
 use super::{
-    CameraDesc, MAX_PIXELS, MAX_RESOLUTION, RenderDefaults, Scene, SceneBuilder, Transform,
-    load_obj_mesh,
+    CameraDesc, MAX_PIXELS, MAX_RESOLUTION, Material, RenderDefaults, Scene, SceneBuilder,
+    Transform, load_obj_mesh,
 };
 use crate::error::{Error, Result};
 use crate::math::Vec3;
@@ -48,6 +49,26 @@ struct SceneFile {
     mesh: Vec<MeshToml>,
     #[serde(default)]
     light: Vec<LightToml>,
+    #[serde(default)]
+    procedural: Vec<ProceduralToml>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ProceduralToml {
+    #[serde(rename = "type")]
+    kind: String,
+    triangles: u64,
+    #[serde(default = "default_displacement")]
+    displacement: f32,
+    #[serde(default)]
+    seed: u64,
+    transform: Option<TransformToml>,
+    material: Option<MaterialToml>,
+}
+
+fn default_displacement() -> f32 {
+    0.1
 }
 
 #[derive(Deserialize)]
@@ -197,6 +218,75 @@ fn check_colour(path: &Path, line: Option<usize>, what: &str, c: Rgb) -> Result<
     Ok(v)
 }
 
+/// Apply a `material = {...}` override to `mat`.
+fn apply_material(
+    path: &Path,
+    line: Option<usize>,
+    over: &MaterialToml,
+    mat: &mut Material,
+) -> Result<()> {
+    if let Some(d) = over.diffuse {
+        let d = check_colour(path, line, "material.diffuse", d)?;
+        if d.max_element() > 1.0 {
+            return Err(Error::input(
+                path,
+                line,
+                format!("material.diffuse must be at most 1, got {d}"),
+            ));
+        }
+        mat.albedo = d;
+    }
+    if let Some(e) = over.emission {
+        mat.emission = check_colour(path, line, "material.emission", e)?;
+    }
+    if let Some(t) = over.two_sided {
+        mat.two_sided = t;
+    }
+    Ok(())
+}
+
+/// Check and convert a `transform = {...}` table.
+fn parse_transform(
+    path: &Path,
+    line: Option<usize>,
+    t: Option<&TransformToml>,
+) -> Result<Transform> {
+    let mut transform = Transform::default();
+    let Some(t) = t else {
+        return Ok(transform);
+    };
+    if let Some(s) = t.scale {
+        transform.scale = check_vec(path, line, "transform.scale", s.0)?;
+        if transform.scale.x * transform.scale.y * transform.scale.z == 0.0 {
+            return Err(Error::input(
+                path,
+                line,
+                "transform.scale must be non-zero on every axis",
+            ));
+        }
+    }
+    if let Some(r) = t.rotate {
+        let axis = check_vec(
+            path,
+            line,
+            "transform.rotate axis",
+            Vec3::new(r[0], r[1], r[2]),
+        )?;
+        if axis.length() == 0.0 || !r[3].is_finite() {
+            return Err(Error::input(
+                path,
+                line,
+                "transform.rotate must be [ax, ay, az, degrees] with a non-zero axis",
+            ));
+        }
+        transform.rotate = Some((axis, r[3]));
+    }
+    if let Some(tr) = t.translate {
+        transform.translate = check_vec(path, line, "transform.translate", Vec3::from(tr))?;
+    }
+    Ok(transform)
+}
+
 /// Load a TOML scene.
 pub fn load(path: &Path) -> Result<Scene> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
@@ -236,59 +326,59 @@ pub fn load(path: &Path) -> Result<Scene> {
         let mut mesh = load_obj_mesh(&mesh_path)?;
         if let Some(over) = &m.material {
             for mat in &mut mesh.materials {
-                if let Some(d) = over.diffuse {
-                    let d = check_colour(path, line, "material.diffuse", d)?;
-                    if d.max_element() > 1.0 {
-                        return Err(Error::input(
-                            path,
-                            line,
-                            format!("material.diffuse must be at most 1, got {d}"),
-                        ));
-                    }
-                    mat.albedo = d;
-                }
-                if let Some(e) = over.emission {
-                    mat.emission = check_colour(path, line, "material.emission", e)?;
-                }
-                if let Some(t) = over.two_sided {
-                    mat.two_sided = t;
-                }
+                apply_material(path, line, over, mat)?;
             }
         }
-        let mut transform = Transform::default();
-        if let Some(t) = &m.transform {
-            if let Some(s) = t.scale {
-                transform.scale = check_vec(path, line, "transform.scale", s.0)?;
-                if transform.scale.min_element().abs() == 0.0
-                    || transform.scale.x * transform.scale.y * transform.scale.z == 0.0
-                {
-                    return Err(Error::input(
-                        path,
-                        line,
-                        "transform.scale must be non-zero on every axis",
-                    ));
-                }
-            }
-            if let Some(r) = t.rotate {
-                let axis = check_vec(
+        let transform = parse_transform(path, line, m.transform.as_ref())?;
+        b.add_mesh(mesh, &transform);
+    }
+
+    for (i, p) in file.procedural.iter().enumerate() {
+        let line = table_line(&text, "procedural", i);
+        let shape = match p.kind.as_str() {
+            "sphere" => Shape::Sphere,
+            "terrain" => Shape::Terrain,
+            other => {
+                return Err(Error::input(
                     path,
                     line,
-                    "transform.rotate axis",
-                    Vec3::new(r[0], r[1], r[2]),
-                )?;
-                if axis.length() == 0.0 || !r[3].is_finite() {
-                    return Err(Error::input(
-                        path,
-                        line,
-                        "transform.rotate must be [ax, ay, az, degrees] with a non-zero axis",
-                    ));
-                }
-                transform.rotate = Some((axis, r[3]));
+                    format!(
+                        "unknown procedural type `{other}` (expected \"sphere\" or \"terrain\")"
+                    ),
+                ));
             }
-            if let Some(tr) = t.translate {
-                transform.translate = check_vec(path, line, "transform.translate", Vec3::from(tr))?;
-            }
+        };
+        if p.triangles == 0 || p.triangles > MAX_TRIANGLES {
+            return Err(Error::input(
+                path,
+                line,
+                format!(
+                    "triangles = {} out of range (1..={MAX_TRIANGLES})",
+                    p.triangles
+                ),
+            ));
         }
+        if !p.displacement.is_finite() || p.displacement.abs() > 0.9 {
+            return Err(Error::input(
+                path,
+                line,
+                format!(
+                    "displacement must be finite and within [-0.9, 0.9], got {}",
+                    p.displacement
+                ),
+            ));
+        }
+        let mut material = Material {
+            name: format!("procedural{i}"),
+            ..Material::default()
+        };
+        if let Some(over) = &p.material {
+            apply_material(path, line, over, &mut material)?;
+        }
+        let name = format!("procedural {} #{i} ({} triangles)", p.kind, p.triangles);
+        let mesh =
+            procedural::generate(shape, p.triangles, p.displacement, p.seed, &name, material);
+        let transform = parse_transform(path, line, p.transform.as_ref())?;
         b.add_mesh(mesh, &transform);
     }
 

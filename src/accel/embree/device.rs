@@ -9,6 +9,7 @@ use super::sys;
 use crate::error::{Error, Result};
 use std::ffi::{CStr, CString, c_char, c_void};
 use std::ptr::NonNull;
+use std::sync::atomic::{AtomicI64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 
 /// An error of the Embree backend.
@@ -22,9 +23,14 @@ pub(super) fn backend_error(message: String) -> Error {
 /// What the error callback records: the first error since the last
 /// [`Device::check`]. Embree may call the callback from its own worker
 /// threads (during a scene build), hence the mutex.
+///
+/// It also holds the byte count of the memory monitor callback
+/// (`rtcSetDeviceMemoryMonitorFunction`), which Embree calls from any thread
+/// whenever it allocates or frees.
 #[derive(Debug, Default)]
 struct ErrorState {
     first: Mutex<Option<String>>,
+    bytes: AtomicI64,
 }
 
 impl ErrorState {
@@ -56,6 +62,21 @@ unsafe extern "C" fn record_error(user: *mut c_void, code: sys::RTCError, text: 
     };
     let mut first = state.first.lock().unwrap_or_else(PoisonError::into_inner);
     first.get_or_insert_with(|| format!("{code:?}: {text}"));
+}
+
+/// The memory monitor registered with `rtcSetDeviceMemoryMonitorFunction`:
+/// adds `bytes` (negative when freeing) to the device's count and never
+/// refuses an allocation. Must not unwind; nothing in it panics.
+unsafe extern "C" fn record_memory(user: *mut c_void, bytes: isize, post: bool) -> bool {
+    // Embree reports each allocation twice (before, then with `post`) and
+    // each free once with `post`; count the pre-allocation call and frees.
+    if !post || bytes < 0 {
+        // SAFETY: as in `record_error`: `user` points to the device's live
+        // `ErrorState`, detached in `Drop` before it is freed.
+        let state = unsafe { &*user.cast_const().cast::<ErrorState>() };
+        state.bytes.fetch_add(bytes as i64, Ordering::Relaxed);
+    }
+    true
 }
 
 /// An Embree device (`RTCDevice`), the factory of scenes and geometries.
@@ -100,6 +121,11 @@ impl Device {
         // `RTCErrorFunction` signature; `user` stays valid until `Drop`
         // detaches the callback (see `record_error`).
         unsafe { sys::rtcSetDeviceErrorFunction(handle.as_ptr(), Some(record_error), user) };
+        // SAFETY: as above, with `record_memory` of the
+        // `RTCMemoryMonitorFunction` signature.
+        unsafe {
+            sys::rtcSetDeviceMemoryMonitorFunction(handle.as_ptr(), Some(record_memory), user)
+        };
         Ok(device)
     }
 
@@ -107,6 +133,12 @@ impl Device {
     /// for as long as `self` is.
     pub(super) fn raw(&self) -> sys::RTCDevice {
         self.handle.as_ptr()
+    }
+
+    /// Bytes Embree currently holds for this device, as its memory monitor
+    /// reported them.
+    pub(super) fn memory_bytes(&self) -> usize {
+        self.errors.bytes.load(Ordering::Relaxed).max(0) as usize
     }
 
     /// `Err` naming `call` when Embree reported an error since the last check
@@ -131,6 +163,7 @@ impl Drop for Device {
         // `self.errors`, which is freed after this function returns.
         unsafe {
             sys::rtcSetDeviceErrorFunction(self.raw(), None, std::ptr::null_mut());
+            sys::rtcSetDeviceMemoryMonitorFunction(self.raw(), None, std::ptr::null_mut());
             sys::rtcReleaseDevice(self.raw());
         }
     }

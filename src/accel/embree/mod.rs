@@ -166,6 +166,10 @@ fn no_hit() -> sys::RTCHit {
 }
 
 impl Accelerator for EmbreeAccel {
+    fn memory_bytes(&self) -> usize {
+        self.scene.device().memory_bytes()
+    }
+
     fn name(&self) -> &'static str {
         "embree"
     }

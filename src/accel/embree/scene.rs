@@ -74,6 +74,11 @@ impl Scene {
         Ok(scene)
     }
 
+    /// The device the scene lives on.
+    pub(super) fn device(&self) -> &Device {
+        &self.device
+    }
+
     /// The raw handle of this committed scene. Valid for as long as `self` is.
     pub(super) fn raw(&self) -> sys::RTCScene {
         self.handle.as_ptr()

@@ -492,3 +492,30 @@ fn origin_on_a_surface_does_not_hit_it_at_t_zero() {
         }
     }
 }
+
+#[test]
+fn memory_monitor_counts_the_build() {
+    // 2000 triangles: Embree's BVH and vertex copies take well over 36 bytes
+    // per triangle and far less than 10 kB per triangle.
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    for i in 0..2000u32 {
+        let x = i as f32;
+        positions.extend([
+            Vec3::new(x, 0.0, 0.0),
+            Vec3::new(x + 1.0, 0.0, 0.0),
+            Vec3::new(x, 1.0, 0.0),
+        ]);
+        indices.push([3 * i, 3 * i + 1, 3 * i + 2]);
+    }
+    let soup = TriangleSoup {
+        positions: &positions,
+        indices: &indices,
+    };
+    let acc = EmbreeAccel::new(soup, AccelOptions::default()).unwrap();
+    let per_tri = acc.memory_bytes() as f64 / 2000.0;
+    assert!(
+        (36.0..10_000.0).contains(&per_tri),
+        "{per_tri} bytes per triangle"
+    );
+}
