@@ -13,11 +13,13 @@ pub mod error;
 pub mod math;
 
 pub use error::{Error, Result};
+pub mod bench;
 pub mod bsdf;
 pub mod camera;
 pub mod film;
 pub mod integrator;
 pub mod light;
+pub mod raysets;
 pub mod render;
 pub mod report;
 pub mod sampler;

@@ -2,6 +2,7 @@
 
 use clap::{Args, Parser, Subcommand};
 use embertrace::accel::{self, AccelOptions, Backend};
+use embertrace::bench::{self, BenchSettings};
 use embertrace::camera::Camera;
 use embertrace::error::{Error, Result};
 use embertrace::film::{self, OutputOptions};
@@ -31,6 +32,33 @@ struct Cli {
 enum Command {
     /// Render a scene (.toml or .obj) to an image.
     Render(RenderArgs),
+    /// Measure build time, memory and ray throughput of each backend.
+    Bench(BenchArgs),
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    /// Scene file: .toml or .obj.
+    scene: PathBuf,
+    /// Backends, comma-separated [every one compiled in; naive only below
+    /// 20k triangles unless named].
+    #[arg(long, value_delimiter = ',')]
+    accel: Option<Vec<Backend>>,
+    /// Threads for the all-cores columns; 0 = all cores.
+    #[arg(short = 't', long, default_value_t = 0)]
+    threads: usize,
+    /// Write the numbers as JSON too.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+    /// Rays per kind.
+    #[arg(long, default_value_t = 200_000)]
+    rays: usize,
+    /// Repetitions per figure (the median is reported).
+    #[arg(long, default_value_t = 5)]
+    reps: usize,
+    /// Turn off Embree's robust mode.
+    #[arg(long)]
+    no_robust: bool,
 }
 
 #[derive(Args)]
@@ -92,7 +120,7 @@ struct RenderArgs {
 }
 
 /// Words that start the subcommand form; anything else is the classic form.
-const SUBCOMMANDS: &[&str] = &["render", "help", "-h", "--help", "-V", "--version"];
+const SUBCOMMANDS: &[&str] = &["render", "bench", "help", "-h", "--help", "-V", "--version"];
 
 fn main() -> ExitCode {
     let mut argv: Vec<String> = std::env::args().collect();
@@ -102,6 +130,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse_from(argv);
     let result = match cli.command {
         Command::Render(args) => run_render(args),
+        Command::Bench(args) => run_bench(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -110,6 +139,46 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// Triangle count above which `bench` leaves the naive backend out unless named.
+const NAIVE_BENCH_LIMIT: usize = 20_000;
+
+fn run_bench(args: BenchArgs) -> Result<()> {
+    if let Some(j) = &args.json {
+        embertrace::report::check_report_path(j)?;
+    }
+    if args.rays == 0 {
+        return Err(Error::Settings(
+            "--rays 0: expected at least one ray per kind".into(),
+        ));
+    }
+    let scene = Scene::load(&args.scene)?;
+    let backends = match args.accel {
+        Some(list) => list,
+        None => Backend::available()
+            .into_iter()
+            .filter(|&b| b != Backend::Naive || scene.triangle_count() <= NAIVE_BENCH_LIMIT)
+            .collect(),
+    };
+    let settings = BenchSettings {
+        backends,
+        threads: args.threads,
+        reps: args.reps,
+        rays: args.rays,
+        options: AccelOptions {
+            robust: !args.no_robust,
+        },
+    };
+    let report = bench::run(&scene, &settings, &|line| eprintln!("{line}"))?;
+    print!("{}", report.table());
+    if let Some(j) = &args.json {
+        let text = serde_json::to_string_pretty(&report)
+            .expect("plain numbers and strings serialise")
+            + "\n";
+        film::write_file_atomically(j, text.as_bytes())?;
+    }
+    Ok(())
 }
 
 fn run_render(args: RenderArgs) -> Result<()> {

@@ -1,0 +1,227 @@
+//! `embertrace bench`: for each backend, the build time, memory per triangle,
+//! and Mrays/s for camera, shadow, diffuse and random rays, single-threaded
+//! and on all cores. Every figure is the median of `reps` repetitions, and
+//! every backend traces the same ray sets in the same process, so the table
+//! compares backends side by side.
+
+use crate::accel::{self, AccelOptions, Accelerator, Backend};
+use crate::error::{Error, Result};
+use crate::raysets::{self, RayKind, RaySet};
+use crate::scene::Scene;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::time::Instant;
+
+/// Ray kinds timed by `bench`.
+pub const BENCH_KINDS: [RayKind; 4] = [
+    RayKind::Camera,
+    RayKind::Shadow,
+    RayKind::Diffuse,
+    RayKind::Random,
+];
+
+/// One backend's throughput for one ray kind.
+#[derive(Debug, Clone, Serialize)]
+pub struct KindResult {
+    /// Ray kind.
+    pub kind: String,
+    /// Rays in the set.
+    pub rays: usize,
+    /// Median Mrays/s on one thread.
+    pub mrays_single: f64,
+    /// Median Mrays/s on all threads.
+    pub mrays_all: f64,
+    /// Hits (closest-hit kinds) or occluded rays (shadow): a checksum that the
+    /// backends must share.
+    pub hits: usize,
+}
+
+/// One backend's row.
+#[derive(Debug, Clone, Serialize)]
+pub struct BackendResult {
+    /// Backend name.
+    pub backend: String,
+    /// Median build seconds.
+    pub build_seconds: f64,
+    /// Bytes held by the structure.
+    pub memory_bytes: usize,
+    /// Bytes per triangle.
+    pub bytes_per_triangle: f64,
+    /// Per ray kind.
+    pub kinds: Vec<KindResult>,
+}
+
+/// The whole benchmark.
+#[derive(Debug, Clone, Serialize)]
+pub struct BenchReport {
+    /// Scene file.
+    pub scene: String,
+    /// Triangles.
+    pub triangles: usize,
+    /// Threads in the "all" columns.
+    pub threads: usize,
+    /// Repetitions per figure (the median is reported).
+    pub reps: usize,
+    /// One row per backend.
+    pub backends: Vec<BackendResult>,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.total_cmp(b));
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+fn trace(accel: &dyn Accelerator, set: &RaySet) -> usize {
+    if set.kind.is_occlusion() {
+        set.rays.iter().filter(|r| accel.occluded(r)).count()
+    } else {
+        set.rays
+            .iter()
+            .filter(|r| accel.intersect(r).is_some())
+            .count()
+    }
+}
+
+fn trace_parallel(accel: &dyn Accelerator, set: &RaySet) -> usize {
+    let occlusion = set.kind.is_occlusion();
+    set.rays
+        .par_chunks(4096)
+        .map(|c| {
+            if occlusion {
+                c.iter().filter(|r| accel.occluded(r)).count()
+            } else {
+                c.iter().filter(|r| accel.intersect(r).is_some()).count()
+            }
+        })
+        .sum()
+}
+
+/// Settings of a benchmark run.
+#[derive(Debug, Clone)]
+pub struct BenchSettings {
+    /// Backends to measure.
+    pub backends: Vec<Backend>,
+    /// Threads for the "all" columns; 0 = all cores.
+    pub threads: usize,
+    /// Repetitions per figure.
+    pub reps: usize,
+    /// Rays per kind.
+    pub rays: usize,
+    /// Options for building each backend.
+    pub options: AccelOptions,
+}
+
+/// Run the benchmark on `scene`. `progress` receives a line per step.
+pub fn run(
+    scene: &Scene,
+    settings: &BenchSettings,
+    progress: &dyn Fn(&str),
+) -> Result<BenchReport> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(settings.threads)
+        .build()
+        .map_err(|e| Error::Settings(format!("cannot start threads: {e}")))?;
+    let threads = pool.current_num_threads();
+    let reps = settings.reps.max(1);
+    // Ray sets come from the first backend (first hits decide where bounce
+    // and shadow rays start), then every backend traces the same sets.
+    let first = settings
+        .backends
+        .first()
+        .ok_or_else(|| Error::Settings("no backend to benchmark".into()))?;
+    let generator = accel::build(*first, scene.soup(), settings.options)?;
+    let sets: Vec<RaySet> = BENCH_KINDS
+        .iter()
+        .map(|&k| raysets::generate(scene, generator.as_ref(), k, settings.rays, 1))
+        .collect();
+    drop(generator);
+    let tris = scene.triangle_count().max(1);
+    let mut rows = Vec::new();
+    for &backend in &settings.backends {
+        progress(&format!("{backend}: building {reps} times"));
+        let mut build_times = Vec::new();
+        let mut accel: Option<Box<dyn Accelerator>> = None;
+        for _ in 0..reps {
+            drop(accel.take()); // free the previous build before timing the next
+            let t = Instant::now();
+            let a = accel::build(backend, scene.soup(), settings.options)?;
+            build_times.push(t.elapsed().as_secs_f64());
+            accel = Some(a);
+        }
+        let accel = accel.expect("reps >= 1 builds at least once");
+        let memory = accel.memory_bytes();
+        let mut kinds = Vec::new();
+        for set in &sets {
+            progress(&format!("{backend}: {} rays x {reps}", set.kind));
+            let mut single = Vec::new();
+            let mut all = Vec::new();
+            let mut hits = 0;
+            for _ in 0..reps {
+                let t = Instant::now();
+                hits = trace(accel.as_ref(), set);
+                single.push(set.rays.len() as f64 / t.elapsed().as_secs_f64() / 1e6);
+                let t = Instant::now();
+                let h = pool.install(|| trace_parallel(accel.as_ref(), set));
+                all.push(set.rays.len() as f64 / t.elapsed().as_secs_f64() / 1e6);
+                debug_assert_eq!(h, hits);
+            }
+            kinds.push(KindResult {
+                kind: set.kind.to_string(),
+                rays: set.rays.len(),
+                mrays_single: median(single),
+                mrays_all: median(all),
+                hits,
+            });
+        }
+        rows.push(BackendResult {
+            backend: backend.to_string(),
+            build_seconds: median(build_times),
+            memory_bytes: memory,
+            bytes_per_triangle: memory as f64 / tris as f64,
+            kinds,
+        });
+    }
+    Ok(BenchReport {
+        scene: scene.source.display().to_string(),
+        triangles: scene.triangle_count(),
+        threads,
+        reps,
+        backends: rows,
+    })
+}
+
+impl BenchReport {
+    /// The table printed on stdout.
+    pub fn table(&self) -> String {
+        let mut out = format!(
+            "{}: {} triangles; Mrays/s, median of {} runs; 1 thread / {} threads\n",
+            self.scene, self.triangles, self.reps, self.threads
+        );
+        out += &format!("{:<8} {:>9} {:>9}", "backend", "build ms", "B/tri");
+        for k in BENCH_KINDS {
+            out += &format!(" {:>17}", k.name());
+        }
+        out.push('\n');
+        for r in &self.backends {
+            out += &format!(
+                "{:<8} {:>9.2} {:>9.1}",
+                r.backend,
+                1e3 * r.build_seconds,
+                r.bytes_per_triangle
+            );
+            for k in &r.kinds {
+                out += &format!(
+                    " {:>17}",
+                    format!("{:.2} / {:.2}", k.mrays_single, k.mrays_all)
+                );
+            }
+            out.push('\n');
+        }
+        out
+    }
+}
