@@ -19,6 +19,7 @@ pub mod camera;
 pub mod film;
 pub mod integrator;
 pub mod light;
+pub mod parity;
 pub mod raysets;
 pub mod render;
 pub mod report;

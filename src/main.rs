@@ -7,6 +7,8 @@ use embertrace::camera::Camera;
 use embertrace::error::{Error, Result};
 use embertrace::film::{self, OutputOptions};
 use embertrace::integrator::{DirectStrategy, IntegratorSettings, PathTracer, Roulette};
+use embertrace::parity::{self, ParitySettings};
+use embertrace::raysets::RayKind;
 use embertrace::render::{self, RenderSettings};
 use embertrace::report::RenderReport;
 use embertrace::scene::{MAX_PIXELS, MAX_RESOLUTION, Scene};
@@ -34,6 +36,40 @@ enum Command {
     Render(RenderArgs),
     /// Measure build time, memory and ray throughput of each backend.
     Bench(BenchArgs),
+    /// Trace identical rays through every backend and report disagreements.
+    Parity(ParityArgs),
+}
+
+#[derive(Args)]
+struct ParityArgs {
+    /// Scene file: .toml or .obj.
+    scene: PathBuf,
+    /// Rays per kind.
+    #[arg(long, default_value_t = 100_000)]
+    rays: usize,
+    /// Ray kinds, comma-separated.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "camera,diffuse,shadow,random,edge,vertex"
+    )]
+    kinds: Vec<RayKind>,
+    /// Backends, comma-separated; the first is the reference [naive when the
+    /// scene has at most 20k triangles, then every other one compiled in].
+    #[arg(long, value_delimiter = ',')]
+    accel: Option<Vec<Backend>>,
+    /// Write the report as JSON too.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
+    /// Side of the image rendered through each backend (0 skips it).
+    #[arg(long, default_value_t = 64)]
+    image: u32,
+    /// Samples per pixel of that image.
+    #[arg(long, default_value_t = 16)]
+    image_spp: u32,
+    /// Turn off Embree's robust mode.
+    #[arg(long)]
+    no_robust: bool,
 }
 
 #[derive(Args)]
@@ -120,7 +156,16 @@ struct RenderArgs {
 }
 
 /// Words that start the subcommand form; anything else is the classic form.
-const SUBCOMMANDS: &[&str] = &["render", "bench", "help", "-h", "--help", "-V", "--version"];
+const SUBCOMMANDS: &[&str] = &[
+    "render",
+    "bench",
+    "parity",
+    "help",
+    "-h",
+    "--help",
+    "-V",
+    "--version",
+];
 
 fn main() -> ExitCode {
     let mut argv: Vec<String> = std::env::args().collect();
@@ -131,6 +176,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => run_render(args),
         Command::Bench(args) => run_bench(args),
+        Command::Parity(args) => run_parity(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -177,6 +223,49 @@ fn run_bench(args: BenchArgs) -> Result<()> {
             .expect("plain numbers and strings serialise")
             + "\n";
         film::write_file_atomically(j, text.as_bytes())?;
+    }
+    Ok(())
+}
+
+fn run_parity(args: ParityArgs) -> Result<()> {
+    if let Some(j) = &args.json {
+        embertrace::report::check_report_path(j)?;
+    }
+    let scene = Scene::load(&args.scene)?;
+    let backends = match args.accel {
+        Some(list) => list,
+        None => {
+            // naive is the oracle where it is affordable; it goes first
+            let mut v: Vec<Backend> = Backend::available();
+            v.sort_by_key(|&b| b != Backend::Naive);
+            v.into_iter()
+                .filter(|&b| b != Backend::Naive || scene.triangle_count() <= NAIVE_BENCH_LIMIT)
+                .collect()
+        }
+    };
+    let settings = ParitySettings {
+        rays: args.rays,
+        kinds: args.kinds,
+        backends,
+        options: AccelOptions {
+            robust: !args.no_robust,
+        },
+        image_resolution: args.image,
+        image_spp: args.image_spp.max(1),
+    };
+    let report = parity::run(&scene, &settings, &|line| eprintln!("{line}"))?;
+    print!("{}", report.table());
+    if let Some(j) = &args.json {
+        let text = serde_json::to_string_pretty(&report)
+            .expect("plain numbers and strings serialise")
+            + "\n";
+        film::write_file_atomically(j, text.as_bytes())?;
+    }
+    if report.unexplained > 0 {
+        return Err(Error::Strict(format!(
+            "{} unexplained disagreements between backends",
+            report.unexplained
+        )));
     }
     Ok(())
 }

@@ -333,3 +333,110 @@ fn exr_output_carries_render_metadata() {
     let secs: f64 = get("embertrace.render_seconds").unwrap().parse().unwrap();
     assert!(secs > 0.0);
 }
+
+fn cornell_scene() -> String {
+    concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.toml").to_string()
+}
+
+#[test]
+fn bench_prints_a_table_and_json_with_matching_checksums() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = cornell_scene();
+    let out = run(
+        dir.path(),
+        &[
+            "bench", &scene, "--rays", "3000", "--reps", "1", "--json", "b.json",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let table = String::from_utf8_lossy(&out.stdout);
+    for b in embertrace::accel::Backend::available() {
+        assert!(table.contains(b.name()), "table lacks {b}: {table}");
+    }
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("b.json")).unwrap()).unwrap();
+    let rows = report["backends"].as_array().unwrap();
+    assert_eq!(rows.len(), embertrace::accel::Backend::available().len());
+    for row in rows {
+        assert!(row["build_seconds"].as_f64().unwrap() >= 0.0);
+        assert!(row["bytes_per_triangle"].as_f64().unwrap() > 0.0);
+        let kinds: Vec<&str> = row["kinds"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|k| k["kind"].as_str().unwrap())
+            .collect();
+        assert_eq!(kinds, ["camera", "shadow", "diffuse", "random"]);
+        for (k, first) in row["kinds"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .zip(rows[0]["kinds"].as_array().unwrap())
+        {
+            assert!(
+                k["mrays_single"].as_f64().unwrap() > 0.0 && k["mrays_all"].as_f64().unwrap() > 0.0
+            );
+            // every backend traced the same rays and found the same number of hits
+            assert_eq!(
+                k["hits"], first["hits"],
+                "{}: {} vs {}",
+                k["kind"], row["backend"], rows[0]["backend"]
+            );
+        }
+    }
+}
+
+#[test]
+fn parity_finds_no_unexplained_disagreements() {
+    if embertrace::accel::Backend::available().len() < 2 {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    setup(
+        dir.path(),
+        &[(
+            "p.toml",
+            "[camera]\norigin = [0, 0.5, 3]\ntarget = [0, 0, 0]\n\n[[procedural]]\ntype = \"sphere\"\ntriangles = 4000\ndisplacement = 0.2\n\n[[procedural]]\ntype = \"terrain\"\ntriangles = 2000\ntransform = { scale = 2, translate = [0, -1, 0] }\n\n[[light]]\ntype = \"environment\"\nradiance = 1\n"
+                .into(),
+        )],
+    );
+    for scene in [
+        cornell_scene(),
+        dir.path().join("p.toml").display().to_string(),
+    ] {
+        let out = run(
+            dir.path(),
+            &[
+                "parity", &scene, "--rays", "4000", "--image", "24", "--json", "p.json",
+            ],
+        );
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{scene}: {stdout}{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let report: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.path().join("p.json")).unwrap())
+                .unwrap();
+        assert_eq!(report["unexplained"], 0);
+        let c = &report["comparisons"][0];
+        assert_eq!(c["kinds"].as_array().unwrap().len(), 6);
+        for k in c["kinds"].as_array().unwrap() {
+            assert!(k["rays"].as_u64().unwrap() > 0);
+            let kind = k["kind"].as_str().unwrap();
+            if ["camera", "diffuse", "shadow", "random"].contains(&kind) {
+                // generic rays: no disagreement at all, explained or not
+                let total = k["hit_miss"].as_u64().unwrap()
+                    + k["primitive"].as_u64().unwrap()
+                    + k["distance"].as_u64().unwrap();
+                assert!(total <= 2, "{scene} {kind}: {total} disagreements");
+            }
+        }
+        assert_eq!(c["image"]["within_noise"], true);
+    }
+}
