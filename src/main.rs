@@ -1,6 +1,7 @@
 //! The `embertrace` command line: parse flags, call the library, print.
 
 use clap::{Args, Parser, Subcommand};
+use embertrace::accel::bvh::BvhQuality;
 use embertrace::accel::{self, AccelOptions, Backend};
 use embertrace::bench::{self, BenchSettings};
 use embertrace::camera::Camera;
@@ -67,9 +68,8 @@ struct ParityArgs {
     /// Samples per pixel of that image.
     #[arg(long, default_value_t = 16)]
     image_spp: u32,
-    /// Turn off Embree's robust mode.
-    #[arg(long)]
-    no_robust: bool,
+    #[command(flatten)]
+    build: BuildArgs,
 }
 
 #[derive(Args)]
@@ -92,9 +92,8 @@ struct BenchArgs {
     /// Repetitions per figure (the median is reported).
     #[arg(long, default_value_t = 5)]
     reps: usize,
-    /// Turn off Embree's robust mode.
-    #[arg(long)]
-    no_robust: bool,
+    #[command(flatten)]
+    build: BuildArgs,
 }
 
 #[derive(Args)]
@@ -141,9 +140,8 @@ struct RenderArgs {
     /// Exposure in stops, applied to PNG output.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
-    /// Turn off Embree's robust (watertight) mode.
-    #[arg(long)]
-    no_robust: bool,
+    #[command(flatten)]
+    build: BuildArgs,
     /// Tile side in pixels.
     #[arg(long, default_value_t = 16)]
     tile_size: u32,
@@ -153,6 +151,34 @@ struct RenderArgs {
     /// Print nothing but errors.
     #[arg(short = 'q', long)]
     quiet: bool,
+}
+
+/// How backends are built (shared by every command).
+#[derive(Args)]
+struct BuildArgs {
+    /// Turn off Embree's robust (watertight) mode.
+    #[arg(long)]
+    no_robust: bool,
+    /// Build quality of the pure-Rust BVH: fast (binned SAH) or high (full sweep).
+    #[arg(long, default_value = "fast", value_parser = parse_quality)]
+    bvh_quality: BvhQuality,
+}
+
+fn parse_quality(s: &str) -> std::result::Result<BvhQuality, String> {
+    match s {
+        "fast" => Ok(BvhQuality::Fast),
+        "high" => Ok(BvhQuality::High),
+        _ => Err(format!("unknown BVH quality `{s}` (expected fast or high)")),
+    }
+}
+
+impl BuildArgs {
+    fn options(&self) -> AccelOptions {
+        AccelOptions {
+            robust: !self.no_robust,
+            bvh_quality: self.bvh_quality,
+        }
+    }
 }
 
 /// Words that start the subcommand form; anything else is the classic form.
@@ -212,9 +238,7 @@ fn run_bench(args: BenchArgs) -> Result<()> {
         threads: args.threads,
         reps: args.reps,
         rays: args.rays,
-        options: AccelOptions {
-            robust: !args.no_robust,
-        },
+        options: args.build.options(),
     };
     let report = bench::run(&scene, &settings, &|line| eprintln!("{line}"))?;
     print!("{}", report.table());
@@ -247,9 +271,7 @@ fn run_parity(args: ParityArgs) -> Result<()> {
         rays: args.rays,
         kinds: args.kinds,
         backends,
-        options: AccelOptions {
-            robust: !args.no_robust,
-        },
+        options: args.build.options(),
         image_resolution: args.image,
         image_spp: args.image_spp.max(1),
     };
@@ -334,13 +356,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
     let backend = args.accel.unwrap_or_else(Backend::default_backend);
 
     let t1 = Instant::now();
-    let accel = accel::build(
-        backend,
-        scene.soup(),
-        AccelOptions {
-            robust: !args.no_robust,
-        },
-    )?;
+    let accel = accel::build(backend, scene.soup(), args.build.options())?;
     let accel_build_seconds = t1.elapsed().as_secs_f64();
 
     let camera = Camera::new(&scene.camera, w, h);

@@ -11,9 +11,12 @@
 //! - [`Accelerator::occluded`]: whether any hit exists in that range.
 //!
 //! Backends: `naive` (brute force over every triangle with the watertight test
-//! of [`triangle`]; the oracle for tests) and `embree` (Intel Embree through
-//! FFI, when built with the `embree` or `embree4` feature).
+//! of [`triangle`]; the oracle for tests), `bvh` (the pure-Rust 4-wide BVH of
+//! [`bvh`], which gives the naive backend's closest hit bit for bit) and
+//! `embree` (Intel Embree through FFI, when built with the `embree` or
+//! `embree4` feature).
 
+pub mod bvh;
 pub mod naive;
 pub mod triangle;
 
@@ -66,6 +69,8 @@ pub struct TriangleSoup<'a> {
 pub enum Backend {
     /// Intel Embree.
     Embree,
+    /// The pure-Rust BVH.
+    Bvh,
     /// Brute force over all triangles.
     Naive,
 }
@@ -77,11 +82,12 @@ impl Backend {
         if cfg!(any(feature = "embree", feature = "embree4")) {
             v.push(Backend::Embree);
         }
+        v.push(Backend::Bvh);
         v.push(Backend::Naive);
         v
     }
 
-    /// The default: Embree when compiled in, otherwise the naive backend.
+    /// The default: Embree when compiled in, otherwise the BVH.
     pub fn default_backend() -> Backend {
         Backend::available()[0]
     }
@@ -90,6 +96,7 @@ impl Backend {
     pub fn name(self) -> &'static str {
         match self {
             Backend::Embree => "embree",
+            Backend::Bvh => "bvh",
             Backend::Naive => "naive",
         }
     }
@@ -106,8 +113,11 @@ impl FromStr for Backend {
     fn from_str(s: &str) -> std::result::Result<Self, String> {
         match s {
             "embree" => Ok(Backend::Embree),
+            "bvh" => Ok(Backend::Bvh),
             "naive" => Ok(Backend::Naive),
-            _ => Err(format!("unknown backend `{s}` (expected embree or naive)")),
+            _ => Err(format!(
+                "unknown backend `{s}` (expected embree, bvh or naive)"
+            )),
         }
     }
 }
@@ -117,11 +127,16 @@ impl FromStr for Backend {
 pub struct AccelOptions {
     /// Embree's robust (watertight) mode, `RTC_SCENE_FLAG_ROBUST`. On by default.
     pub robust: bool,
+    /// Build quality of the pure-Rust BVH (`--bvh-quality`).
+    pub bvh_quality: bvh::BvhQuality,
 }
 
 impl Default for AccelOptions {
     fn default() -> Self {
-        AccelOptions { robust: true }
+        AccelOptions {
+            robust: true,
+            bvh_quality: bvh::BvhQuality::Fast,
+        }
     }
 }
 
@@ -133,6 +148,7 @@ pub fn build(
 ) -> Result<Box<dyn Accelerator>> {
     match backend {
         Backend::Naive => Ok(Box::new(naive::Naive::new(soup))),
+        Backend::Bvh => Ok(Box::new(bvh::Bvh::new(soup, options.bvh_quality))),
         Backend::Embree => build_embree(soup, options),
     }
 }
@@ -145,7 +161,6 @@ fn build_embree(soup: TriangleSoup<'_>, options: AccelOptions) -> Result<Box<dyn
 #[cfg(not(any(feature = "embree", feature = "embree4")))]
 fn build_embree(_: TriangleSoup<'_>, _: AccelOptions) -> Result<Box<dyn Accelerator>> {
     Err(crate::error::Error::Settings(
-        "this binary was built without Embree (--no-default-features); use --accel naive"
-            .to_string(),
+        "this binary was built without Embree (--no-default-features); use --accel bvh".to_string(),
     ))
 }

@@ -93,12 +93,11 @@ impl WatertightRay {
         let bz = self.sz * b[kz];
         let cz = self.sz * c[kz];
         let t_scaled = u * az + v * bz + w * cz;
-        // t = t_scaled / det must lie in (0, t_max]; compare without dividing.
-        if det > 0.0 {
-            if t_scaled <= 0.0 || t_scaled > t_max * det {
-                return None;
-            }
-        } else if t_scaled >= 0.0 || t_scaled < t_max * det {
+        // t = t_scaled / det must be positive: same signs. The range check
+        // against t_max happens after the division, on t itself, so the
+        // answer for a triangle never depends on how t_max was reached (the
+        // BVH and the naive backend pass different t_max sequences).
+        if (det > 0.0 && t_scaled <= 0.0) || (det < 0.0 && t_scaled >= 0.0) {
             return None;
         }
         let inv = 1.0 / det;

@@ -9,7 +9,7 @@ use crate::error::Error;
 use crate::math::Vec3;
 
 fn build(positions: &[Vec3], indices: &[[u32; 3]], robust: bool) -> EmbreeAccel {
-    EmbreeAccel::new(TriangleSoup { positions, indices }, AccelOptions { robust })
+    EmbreeAccel::new(TriangleSoup { positions, indices }, AccelOptions { robust, ..AccelOptions::default() })
         .expect("Embree builds the scene")
 }
 
