@@ -213,8 +213,21 @@ impl Bvh {
                 let n = (node.min[a][k] - o[a]) * inv[a];
                 let f = (node.max[a][k] - o[a]) * inv[a];
                 let (near, far) = if n > f { (f, n) } else { (n, f) };
-                // NaN (0 * inf, origin on the slab plane) constrains nothing
-                let far = far * (1.0 + 2.0 * gamma(3));
+                // NaN is 0 * inf: the ray runs parallel to this slab with its
+                // origin exactly on one of its planes, so the slab constrains
+                // nothing (the ray touches the box's boundary, where a
+                // triangle edge or vertex can be hit)
+                let unconstrained = n.is_nan() || f.is_nan();
+                let near = if unconstrained {
+                    f32::NEG_INFINITY
+                } else {
+                    near
+                };
+                let far = if unconstrained {
+                    f32::INFINITY
+                } else {
+                    far * (1.0 + 2.0 * gamma(3))
+                };
                 t0 = if near > t0 { near } else { t0 };
                 t1 = if far < t1 { far } else { t1 };
             }

@@ -9,8 +9,14 @@ use crate::error::Error;
 use crate::math::Vec3;
 
 fn build(positions: &[Vec3], indices: &[[u32; 3]], robust: bool) -> EmbreeAccel {
-    EmbreeAccel::new(TriangleSoup { positions, indices }, AccelOptions { robust, ..AccelOptions::default() })
-        .expect("Embree builds the scene")
+    EmbreeAccel::new(
+        TriangleSoup { positions, indices },
+        AccelOptions {
+            robust,
+            ..AccelOptions::default()
+        },
+    )
+    .expect("Embree builds the scene")
 }
 
 /// Two unit right triangles: prim 0 in the plane z = 0, prim 1 in z = -1.

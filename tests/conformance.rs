@@ -1,0 +1,486 @@
+//! The conformance suite every backend must pass (hard cases 1-11 of
+//! `../shared/docs/hard-cases.md`): each test runs against every backend
+//! compiled in and checks it against the naive oracle. The BVH must equal the
+//! oracle bit for bit (same triangle routine, same tie rule); Embree must
+//! agree on hit/miss and within `1e-5 * max(1, t)`, with primitive ids equal
+//! or adjacent across a shared edge.
+
+use embertrace::accel::bvh::BvhQuality;
+use embertrace::accel::{self, AccelOptions, Accelerator, Backend, Hit, TriangleSoup};
+use embertrace::math::{Ray, Vec3};
+use embertrace::sampler::Sampler;
+use embertrace::sampling::square_to_uniform_sphere;
+
+struct Soup {
+    positions: Vec<Vec3>,
+    indices: Vec<[u32; 3]>,
+}
+
+impl Soup {
+    fn new() -> Self {
+        Soup {
+            positions: Vec::new(),
+            indices: Vec::new(),
+        }
+    }
+    fn tri(&mut self, a: Vec3, b: Vec3, c: Vec3) {
+        let n = self.positions.len() as u32;
+        self.positions.extend([a, b, c]);
+        self.indices.push([n, n + 1, n + 2]);
+    }
+    fn soup(&self) -> TriangleSoup<'_> {
+        TriangleSoup {
+            positions: &self.positions,
+            indices: &self.indices,
+        }
+    }
+    fn build(&self, b: Backend) -> Box<dyn Accelerator> {
+        accel::build(b, self.soup(), AccelOptions::default()).unwrap()
+    }
+}
+
+/// A closed icosphere (shared vertices), subdivided `levels` times, its
+/// vertices moved radially by up to `jitter`.
+fn icosphere(levels: u32, jitter: f32) -> Soup {
+    let t = (1.0 + 5f32.sqrt()) / 2.0;
+    let mut p: Vec<Vec3> = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
+    .collect();
+    let mut f: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..levels {
+        let mut mid = std::collections::HashMap::new();
+        let mut next = Vec::new();
+        let mut m = |a: u32, b: u32, p: &mut Vec<Vec3>| {
+            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                p.push((0.5 * (p[a as usize] + p[b as usize])).normalize());
+                p.len() as u32 - 1
+            })
+        };
+        for [a, b, c] in f {
+            let (ab, bc, ca) = (m(a, b, &mut p), m(b, c, &mut p), m(c, a, &mut p));
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        f = next;
+    }
+    let mut s = Sampler::new(5, 0, 0);
+    for q in &mut p {
+        *q *= 1.0 + jitter * (s.next_1d() - 0.5);
+    }
+    Soup {
+        positions: p,
+        indices: f,
+    }
+}
+
+fn cube() -> Soup {
+    let v: Vec<Vec3> = (0..8)
+        .map(|i| {
+            Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32) * 2.0
+                - Vec3::ONE
+        })
+        .collect();
+    let quads = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    let mut indices = Vec::new();
+    for q in quads {
+        indices.push([q[0], q[1], q[2]]);
+        indices.push([q[0], q[2], q[3]]);
+    }
+    Soup {
+        positions: v,
+        indices,
+    }
+}
+
+/// Whether `h` lies on an edge or vertex of its triangle, or `ray` grazes it:
+/// places where two correct intersectors may disagree.
+fn on_boundary(soup: &Soup, ray: &Ray, h: &Hit) -> bool {
+    let [a, b, c] = soup.indices[h.prim as usize].map(|i| soup.positions[i as usize]);
+    let n = (b - a).cross(c - a).normalize();
+    [1.0 - h.u - h.v, h.u, h.v].iter().any(|x| x.abs() < 1e-4) || n.dot(ray.d).abs() < 1e-3
+}
+
+/// Checks `got` from backend `b` against the oracle's `want`; returns whether
+/// an Embree difference was excused as an edge, vertex or grazing case.
+fn agree(b: Backend, soup: &Soup, ray: &Ray, got: Option<Hit>, want: Option<Hit>) -> bool {
+    if b != Backend::Embree {
+        assert_eq!(got, want, "{b} differs from naive on {ray:?}");
+        return false;
+    }
+    let same = match (got, want) {
+        (None, None) => true,
+        (Some(g), Some(w)) => {
+            let close = (g.t - w.t).abs() <= 1e-5 * w.t.max(1.0);
+            let a = soup.indices[g.prim as usize].map(|i| soup.positions[i as usize]);
+            let c = soup.indices[w.prim as usize].map(|i| soup.positions[i as usize]);
+            close && (g.prim == w.prim || a.iter().any(|p| c.contains(p)))
+        }
+        _ => false,
+    };
+    if same {
+        return false;
+    }
+    let excused = [got, want]
+        .iter()
+        .flatten()
+        .any(|h| on_boundary(soup, ray, h));
+    assert!(
+        excused,
+        "embree differs from naive away from any edge on {ray:?}: {got:?} vs {want:?}"
+    );
+    true
+}
+
+fn check_all(soup: &Soup, rays: &[Ray]) {
+    let oracle = soup.build(Backend::Naive);
+    for b in Backend::available() {
+        let acc = soup.build(b);
+        let mut excused = 0;
+        for r in rays {
+            let want = oracle.intersect(r);
+            excused += agree(b, soup, r, acc.intersect(r), want) as usize;
+            if b != Backend::Embree {
+                assert_eq!(acc.occluded(r), oracle.occluded(r), "{b} occluded on {r:?}");
+            }
+        }
+        if excused > 0 {
+            eprintln!(
+                "{b}: {excused} of {} rays differ on an edge, vertex or grazing hit",
+                rays.len()
+            );
+        }
+    }
+}
+
+#[test]
+fn case1_shared_edge_is_watertight() {
+    let rot = glam::Quat::from_euler(glam::EulerRot::XYZ, 0.4, 0.9, 0.2);
+    let q = |x: f32, y: f32| rot * Vec3::new(x, y, 0.0) + Vec3::new(0.3, -0.2, 0.7);
+    let mut soup = Soup::new();
+    soup.tri(q(0.0, 0.0), q(1.0, 0.0), q(1.0, 1.0));
+    soup.tri(q(0.0, 0.0), q(1.0, 1.0), q(0.0, 1.0));
+    let n = rot * Vec3::Z;
+    let mut rays = Vec::new();
+    for i in 0..32 {
+        for j in 0..32 {
+            let target = q(0.0, 0.0) + (i as f32 + 0.5) / 32.0 * (q(1.0, 1.0) - q(0.0, 0.0));
+            let o = target + 1.5 * n + rot * Vec3::new(0.05 * j as f32 - 0.8, 0.3, 0.0);
+            rays.push(Ray::new(o, (target - o).normalize()));
+        }
+    }
+    for b in Backend::available() {
+        let acc = soup.build(b);
+        let misses = rays.iter().filter(|r| acc.intersect(r).is_none()).count();
+        assert_eq!(
+            misses, 0,
+            "{b} (robust) let {misses} of 1024 rays through the shared edge"
+        );
+        if b == Backend::Embree {
+            let fast = accel::build(
+                b,
+                soup.soup(),
+                AccelOptions {
+                    robust: false,
+                    ..AccelOptions::default()
+                },
+            )
+            .unwrap();
+            let m = rays.iter().filter(|r| fast.intersect(r).is_none()).count();
+            eprintln!("embree without robust mode: {m} of 1024 shared-edge rays missed");
+        }
+    }
+    check_all(&soup, &rays);
+}
+
+#[test]
+fn case2_closed_mesh_from_inside_never_misses() {
+    let soup = icosphere(3, 0.2); // 1280 triangles
+    let mut s = Sampler::new(2, 0, 0);
+    let mut rays: Vec<Ray> = (0..100_000)
+        .map(|_| {
+            let o = 0.3 * (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - Vec3::splat(0.5));
+            Ray::new(o, square_to_uniform_sphere(s.next_2d()))
+        })
+        .collect();
+    for p in &soup.positions {
+        let o = Vec3::new(0.01, -0.02, 0.015);
+        rays.push(Ray::new(o, (*p - o).normalize()));
+    }
+    for b in Backend::available() {
+        let acc = soup.build(b);
+        let misses = rays.iter().filter(|r| acc.intersect(r).is_none()).count();
+        if b == Backend::Embree {
+            eprintln!(
+                "embree (robust): {misses} of {} rays from inside missed",
+                rays.len()
+            );
+        } else {
+            assert_eq!(
+                misses,
+                0,
+                "{b}: {misses} of {} rays escaped the closed mesh",
+                rays.len()
+            );
+        }
+    }
+    check_all(&soup, &rays[..20_000]);
+}
+
+#[test]
+fn case3_hits_through_closed_meshes_alternate() {
+    for (name, soup) in [("cube", cube()), ("icosphere", icosphere(2, 0.0))] {
+        let normal = |prim: u32| {
+            let [a, b, c] = soup.indices[prim as usize].map(|i| soup.positions[i as usize]);
+            (b - a).cross(c - a)
+        };
+        for b in Backend::available() {
+            let acc = soup.build(b);
+            let mut s = Sampler::new(3, 0, 0);
+            for _ in 0..2000 {
+                let o = square_to_uniform_sphere(s.next_2d()) * 3.0;
+                let target =
+                    0.5 * (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - Vec3::splat(0.5));
+                let d = (target - o).normalize();
+                let mut ray = Ray::new(o, d);
+                let mut signs = Vec::new();
+                while let Some(h) = acc.intersect(&ray) {
+                    let n = normal(h.prim);
+                    signs.push(n.dot(d) > 0.0);
+                    let sp = embertrace::math::SurfacePoint::on_triangle(
+                        soup.indices[h.prim as usize].map(|i| soup.positions[i as usize]),
+                        h.u,
+                        h.v,
+                        n.normalize(),
+                    );
+                    ray = embertrace::math::spawn_ray(&sp, d);
+                    assert!(signs.len() < 10, "{b} {name}: runaway hit sequence");
+                }
+                assert_eq!(
+                    signs.len() % 2,
+                    0,
+                    "{b} {name}: odd hit count {signs:?} from {o} towards {target}"
+                );
+                for w in signs.windows(2) {
+                    assert_ne!(w[0], w[1], "{b} {name}: entering twice in a row {signs:?}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn case8_degenerate_and_nonfinite_triangles() {
+    let mut soup = Soup::new();
+    let (a, b, c) = (
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+    );
+    soup.tri(a, b, c); // 0: ordinary
+    soup.tri(a, a, c); // 1: repeated vertex
+    soup.tri(a, b, 2.0 * b - a); // 2: collinear
+    soup.tri(
+        Vec3::new(-1.0, 0.0, -0.5),
+        Vec3::new(1.0, 0.0, -0.5),
+        Vec3::new(0.0, 1e-7, -0.5),
+    ); // 3: needle
+    soup.tri(Vec3::new(f32::NAN, 0.0, 0.0), b, c); // 4: NaN
+    soup.tri(Vec3::new(f32::INFINITY, 0.0, 1.0), b, c); // 5: Inf
+    let mut s = Sampler::new(8, 0, 0);
+    let mut rays = Vec::new();
+    for _ in 0..20_000 {
+        let o = Vec3::new(s.next_1d() * 4.0 - 2.0, s.next_1d() * 4.0 - 2.0, 2.0);
+        let t = Vec3::new(s.next_1d() * 3.0 - 1.5, s.next_1d() * 3.0 - 1.5, -0.5);
+        rays.push(Ray::new(o, (t - o).normalize()));
+    }
+    // aimed at the needle exactly
+    for i in 0..200 {
+        let p = Vec3::new(-0.9 + 1.8 * i as f32 / 200.0, 0.0, -0.5);
+        rays.push(Ray::new(p + Vec3::new(0.0, 0.0, 1.0), -Vec3::Z));
+    }
+    for bk in Backend::available() {
+        let acc = soup.build(bk);
+        for r in &rays {
+            if let Some(h) = acc.intersect(r) {
+                assert!(
+                    ![1, 2, 4, 5].contains(&h.prim),
+                    "{bk} hit degenerate or non-finite triangle {}",
+                    h.prim
+                );
+                assert!(h.t.is_finite() && h.u.is_finite() && h.v.is_finite());
+            }
+        }
+    }
+    check_all(&soup, &rays);
+}
+
+#[test]
+fn case10_adversarial_slab_rays_match_brute_force() {
+    // An axis-aligned grid of triangles: leaf boxes share planes with the rays.
+    let mut soup = Soup::new();
+    for i in 0..12 {
+        for j in 0..12 {
+            let (x, y) = (i as f32, j as f32);
+            let z = ((i * 7 + j * 3) % 5) as f32 * 0.25;
+            soup.tri(
+                Vec3::new(x, y, z),
+                Vec3::new(x + 1.0, y, z),
+                Vec3::new(x, y + 1.0, z),
+            );
+            soup.tri(
+                Vec3::new(x + 1.0, y, z),
+                Vec3::new(x + 1.0, y + 1.0, z),
+                Vec3::new(x, y + 1.0, z),
+            );
+            soup.tri(
+                Vec3::new(x, y, z),
+                Vec3::new(x, y + 1.0, z),
+                Vec3::new(x, y, z + 0.5),
+            ); // walls
+        }
+    }
+    let mut rays = Vec::new();
+    let dirs = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+    for i in 0..=12 {
+        for j in 0..=12 {
+            for k in 0..=4 {
+                let o = Vec3::new(i as f32, j as f32, k as f32 * 0.25); // exactly on slab planes
+                for d in dirs {
+                    rays.push(Ray::new(o, d));
+                    rays.push(Ray::new(o - 2.0 * d, d)); // from outside along the plane
+                }
+                // grazing a box face at a tiny angle
+                rays.push(Ray::new(o, Vec3::new(1.0, 1e-7, 0.0).normalize()));
+                rays.push(Ray::new(
+                    o + Vec3::new(0.5, 0.5, 0.1),
+                    Vec3::new(1e-30, 1.0, -1e-30).normalize(),
+                ));
+            }
+        }
+    }
+    let mut s = Sampler::new(10, 0, 0);
+    for _ in 0..5000 {
+        // starting inside boxes, random and axis-parallel directions
+        let o = Vec3::new(s.next_1d() * 12.0, s.next_1d() * 12.0, s.next_1d());
+        rays.push(Ray::new(o, square_to_uniform_sphere(s.next_2d())));
+        rays.push(Ray::new(o, dirs[(s.next_1d() * 6.0) as usize % 6]));
+    }
+    check_all(&soup, &rays);
+}
+
+#[test]
+fn case11_random_soups_agree_with_brute_force() {
+    let mut s = Sampler::new(11, 0, 0);
+    let mut soup = Soup::new();
+    for i in 0..3000 {
+        let c = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * 10.0;
+        let size = match i % 4 {
+            0 => 0.01,
+            1 => 0.3,
+            2 => 3.0,
+            _ => 1e-4,
+        };
+        let mut v =
+            || c + (Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) - Vec3::splat(0.5)) * size;
+        let (a, b, c2) = (v(), v(), v());
+        soup.tri(a, b, c2);
+        if i % 10 == 0 {
+            soup.tri(b, a, v()); // shares an edge
+        }
+        if i % 97 == 0 {
+            soup.tri(
+                a,
+                a + Vec3::new(5.0, 0.0, 0.0),
+                a + Vec3::new(2.5, 1e-6, 0.0),
+            ); // needle
+        }
+    }
+    let rays: Vec<Ray> = (0..20_000)
+        .map(|_| {
+            let o = Vec3::new(s.next_1d(), s.next_1d(), s.next_1d()) * 14.0 - Vec3::splat(2.0);
+            let mut r = Ray::new(o, square_to_uniform_sphere(s.next_2d()));
+            if s.next_1d() < 0.3 {
+                r.t_max = s.next_1d() * 5.0;
+            }
+            r
+        })
+        .collect();
+    check_all(&soup, &rays);
+    // the high-quality BVH build answers identically
+    let fast = soup.build(Backend::Bvh);
+    let high = accel::build(
+        Backend::Bvh,
+        soup.soup(),
+        AccelOptions {
+            bvh_quality: BvhQuality::High,
+            ..AccelOptions::default()
+        },
+    )
+    .unwrap();
+    for r in &rays {
+        assert_eq!(fast.intersect(r), high.intersect(r));
+    }
+}
+
+#[test]
+fn empty_and_single_triangle_scenes() {
+    let empty = Soup::new();
+    let mut one = Soup::new();
+    one.tri(Vec3::ZERO, Vec3::X, Vec3::Y);
+    let r = Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z);
+    for b in Backend::available() {
+        let e = empty.build(b);
+        assert!(
+            e.intersect(&r).is_none() && !e.occluded(&r),
+            "{b}: empty scene hit"
+        );
+        let o = one.build(b);
+        let h = o
+            .intersect(&r)
+            .unwrap_or_else(|| panic!("{b}: missed the only triangle"));
+        assert!((h.t - 1.0).abs() < 1e-6 && h.prim == 0);
+        assert!(o.occluded(&r));
+        assert!(!o.occluded(&Ray { t_max: 0.5, ..r }));
+    }
+}
