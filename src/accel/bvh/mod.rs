@@ -23,6 +23,7 @@ use super::triangle::WatertightRay;
 use super::{Accelerator, Hit, TriangleSoup};
 use crate::math::{Ray, Vec3, gamma};
 use build::{BinNode, PrimRef};
+use glam::Vec4;
 
 /// Most triangles in a leaf.
 pub const LEAF_MAX: usize = 4;
@@ -84,13 +85,20 @@ impl Aabb {
 const LEAF_BIT: u32 = 1 << 31;
 const EMPTY_CHILD: u32 = u32::MAX;
 
-/// A 4-wide node: the four child boxes as structure-of-arrays.
+/// A 4-wide node: the four child boxes as structure-of-arrays, one SIMD
+/// lane per child (glam's `Vec4` is an SSE register on x86-64).
 #[derive(Debug, Clone, Copy)]
 struct Node4 {
-    min: [[f32; 4]; 3],
-    max: [[f32; 4]; 3],
+    min: [Vec4; 3],
+    max: [Vec4; 3],
     child: [u32; 4],
 }
+
+const EMPTY_NODE: Node4 = Node4 {
+    min: [Vec4::splat(f32::INFINITY); 3],
+    max: [Vec4::splat(f32::NEG_INFINITY); 3],
+    child: [EMPTY_CHILD; 4],
+};
 
 /// The pure-Rust BVH.
 pub struct Bvh {
@@ -148,11 +156,7 @@ impl Bvh {
         bvh.root = match &tree {
             BinNode::Leaf { start, count, .. } => {
                 // a single leaf still goes under one node so traversal is uniform
-                let mut n = Node4 {
-                    min: [[f32::INFINITY; 4]; 3],
-                    max: [[f32::NEG_INFINITY; 4]; 3],
-                    child: [EMPTY_CHILD; 4],
-                };
+                let mut n = EMPTY_NODE;
                 set_slot(&mut n, 0, tree.bounds(), leaf_ref(*start, *count));
                 bvh.nodes.push(n);
                 0
@@ -183,11 +187,7 @@ impl Bvh {
             slots.extend(children.iter());
         }
         let index = self.nodes.len();
-        self.nodes.push(Node4 {
-            min: [[f32::INFINITY; 4]; 3],
-            max: [[f32::NEG_INFINITY; 4]; 3],
-            child: [EMPTY_CHILD; 4],
-        });
+        self.nodes.push(EMPTY_NODE);
         for (k, child) in slots.iter().enumerate() {
             let r = match child {
                 BinNode::Leaf { start, count, .. } => leaf_ref(*start, *count),
@@ -203,39 +203,24 @@ impl Bvh {
     /// Distances at which the ray enters each of the node's four boxes, or
     /// infinity for a box it misses within `(0, t_max]`.
     #[inline(always)]
-    fn slab4(node: &Node4, o: &[f32; 3], inv: &[f32; 3], t_max: f32) -> [f32; 4] {
-        let t_far_limit = t_max * (1.0 + 2.0 * gamma(3));
-        let mut out = [f32::INFINITY; 4];
-        for (k, slot) in out.iter_mut().enumerate() {
-            let mut t0 = 0.0f32;
-            let mut t1 = t_far_limit;
-            for a in 0..3 {
-                let n = (node.min[a][k] - o[a]) * inv[a];
-                let f = (node.max[a][k] - o[a]) * inv[a];
-                let (near, far) = if n > f { (f, n) } else { (n, f) };
-                // NaN is 0 * inf: the ray runs parallel to this slab with its
-                // origin exactly on one of its planes, so the slab constrains
-                // nothing (the ray touches the box's boundary, where a
-                // triangle edge or vertex can be hit)
-                let unconstrained = n.is_nan() || f.is_nan();
-                let near = if unconstrained {
-                    f32::NEG_INFINITY
-                } else {
-                    near
-                };
-                let far = if unconstrained {
-                    f32::INFINITY
-                } else {
-                    far * (1.0 + 2.0 * gamma(3))
-                };
-                t0 = if near > t0 { near } else { t0 };
-                t1 = if far < t1 { far } else { t1 };
-            }
-            if t0 <= t1 {
-                *slot = t0;
-            }
+    fn slab4(node: &Node4, o: &[Vec4; 3], inv: &[Vec4; 3], t_max: f32) -> [f32; 4] {
+        let widen = Vec4::splat(1.0 + 2.0 * gamma(3));
+        let mut t0 = Vec4::ZERO;
+        let mut t1 = Vec4::splat(t_max) * widen;
+        for a in 0..3 {
+            let n = (node.min[a] - o[a]) * inv[a];
+            let f = (node.max[a] - o[a]) * inv[a];
+            // NaN is 0 * inf: the ray runs parallel to this slab with its
+            // origin exactly on one of its planes, so the slab constrains
+            // nothing (the ray touches the box's boundary, where a triangle
+            // edge or vertex can be hit)
+            let unconstrained = n.is_nan_mask() | f.is_nan_mask();
+            let near = Vec4::select(unconstrained, Vec4::NEG_INFINITY, n.min(f));
+            let far = Vec4::select(unconstrained, Vec4::INFINITY, n.max(f) * widen);
+            t0 = t0.max(near);
+            t1 = t1.min(far);
         }
-        out
+        Vec4::select(t0.cmple(t1), t0, Vec4::INFINITY).to_array()
     }
 
     #[inline(always)]
@@ -251,6 +236,21 @@ fn set_slot(n: &mut Node4, k: usize, b: &Aabb, r: u32) {
         n.max[a][k] = b.max[a];
     }
     n.child[k] = r;
+}
+
+/// A ray's origin and reciprocal direction, one axis per `Vec4`, each
+/// broadcast to the four lanes.
+#[inline(always)]
+fn broadcast(ray: &Ray) -> ([Vec4; 3], [Vec4; 3]) {
+    let inv = ray.d.recip();
+    (
+        [
+            Vec4::splat(ray.o.x),
+            Vec4::splat(ray.o.y),
+            Vec4::splat(ray.o.z),
+        ],
+        [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
+    )
 }
 
 impl Accelerator for Bvh {
@@ -269,8 +269,7 @@ impl Accelerator for Bvh {
             return None;
         }
         let wr = WatertightRay::new(ray);
-        let o = ray.o.to_array();
-        let inv = ray.d.recip().to_array();
+        let (o, inv) = broadcast(ray);
         let mut best: Option<Hit> = None;
         let mut t_max = ray.t_max;
         let mut stack = [0u32; STACK_SIZE];
@@ -323,8 +322,7 @@ impl Accelerator for Bvh {
             return false;
         }
         let wr = WatertightRay::new(ray);
-        let o = ray.o.to_array();
-        let inv = ray.d.recip().to_array();
+        let (o, inv) = broadcast(ray);
         let mut stack = [0u32; STACK_SIZE];
         stack[0] = self.root;
         let mut sp = 1;
