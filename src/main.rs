@@ -213,6 +213,13 @@ fn main() -> ExitCode {
     }
 }
 
+/// Write `value` as pretty JSON to `path`, atomically.
+fn write_json(path: &std::path::Path, value: &impl serde::Serialize) -> Result<()> {
+    let text =
+        serde_json::to_string_pretty(value).expect("plain numbers and strings serialise") + "\n";
+    film::write_file_atomically(path, text.as_bytes())
+}
+
 /// Triangle count above which `bench` leaves the naive backend out unless named.
 const NAIVE_BENCH_LIMIT: usize = 20_000;
 
@@ -243,10 +250,7 @@ fn run_bench(args: BenchArgs) -> Result<()> {
     let report = bench::run(&scene, &settings, &|line| eprintln!("{line}"))?;
     print!("{}", report.table());
     if let Some(j) = &args.json {
-        let text = serde_json::to_string_pretty(&report)
-            .expect("plain numbers and strings serialise")
-            + "\n";
-        film::write_file_atomically(j, text.as_bytes())?;
+        write_json(j, &report)?;
     }
     Ok(())
 }
@@ -278,10 +282,7 @@ fn run_parity(args: ParityArgs) -> Result<()> {
     let report = parity::run(&scene, &settings, &|line| eprintln!("{line}"))?;
     print!("{}", report.table());
     if let Some(j) = &args.json {
-        let text = serde_json::to_string_pretty(&report)
-            .expect("plain numbers and strings serialise")
-            + "\n";
-        film::write_file_atomically(j, text.as_bytes())?;
+        write_json(j, &report)?;
     }
     if report.unexplained > 0 {
         return Err(Error::Strict(format!(
@@ -419,7 +420,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
     };
     film::write_image(&output, &out.film, &options)?;
     if let Some(path) = &args.report {
-        film::write_file_atomically(path, report.to_json().as_bytes())?;
+        write_json(path, &report)?;
     }
     say(&format!(
         "wrote {}: {:.2} s, {} rays, {:.2} Mrays/s, {:.3} Mpaths/s",

@@ -129,13 +129,6 @@ impl RenderReport {
         }
     }
 
-    /// Pretty JSON.
-    pub fn to_json(&self) -> String {
-        serde_json::to_string_pretty(self)
-            .expect("a report of plain numbers and strings serialises")
-            + "\n"
-    }
-
     /// Key/value pairs for image metadata (EXR header attributes).
     pub fn metadata(&self) -> Vec<(String, String)> {
         vec![
