@@ -24,6 +24,7 @@ use super::{Accelerator, Hit, TriangleSoup};
 use crate::math::{Ray, Vec3, gamma};
 use build::{BinNode, PrimRef};
 use glam::Vec4;
+use rayon::prelude::*;
 
 /// Most triangles in a leaf.
 pub const LEAF_MAX: usize = 4;
@@ -121,7 +122,7 @@ impl Bvh {
     pub fn new(soup: TriangleSoup<'_>, quality: BvhQuality) -> Self {
         let mut prims: Vec<PrimRef> = soup
             .indices
-            .iter()
+            .par_iter()
             .enumerate()
             .filter_map(|(i, t)| {
                 let p = t.map(|k| soup.positions[k as usize]);
@@ -147,10 +148,10 @@ impl Bvh {
             return bvh;
         }
         let tree = build::build(&mut prims, 0, 0, quality == BvhQuality::High);
-        bvh.ids = prims.iter().map(|p| p.id).collect();
+        bvh.ids = prims.par_iter().map(|p| p.id).collect();
         bvh.tris = bvh
             .ids
-            .iter()
+            .par_iter()
             .map(|&i| soup.indices[i as usize].map(|k| soup.positions[k as usize]))
             .collect();
         bvh.root = match &tree {
