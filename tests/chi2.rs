@@ -5,7 +5,6 @@
 
 mod common;
 
-use embertrace::math::Vec2;
 use embertrace::sampler::Sampler;
 use embertrace::sampling::{
     Discrete, square_to_cosine_hemisphere, square_to_uniform_sphere, square_to_uniform_triangle,
@@ -158,5 +157,4 @@ fn light_selection() {
         .map(|&w| w as f64 / total * N as f64)
         .collect();
     chi2_test("light selection", &obs, &exp);
-    let _ = Vec2::ZERO;
 }
