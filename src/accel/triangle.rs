@@ -11,6 +11,34 @@
 use super::Hit;
 use crate::math::{Ray, Vec3, gamma};
 
+/// A bound on how far two correct `f32` ray/triangle tests (this one, or
+/// Embree's) may place the hit along the ray: `gamma(16) * R / |cos|`, where
+/// `R` is the largest distance from the origin to a corner and `cos` the
+/// cosine between the ray and the triangle's normal.
+///
+/// Why: the edge functions are differences of products of corner
+/// coordinates relative to the origin, so each carries an absolute error of
+/// a few ulps of `R^2`; the determinant (twice the projected area) is about
+/// `R^2 |cos|` for a triangle whose size is comparable to `R`, and `t` is the
+/// corners' distances (up to `R`) weighted by edge function / determinant.
+/// Hence `|dt| ~ eps R / |cos|`: a triangle much larger than the hit distance
+/// pins `t` down no better than that, whichever routine computes it
+/// (pbrt-v4 section 6.8.4 bounds the same terms). Returns infinity for a
+/// degenerate triangle.
+pub fn distance_error_bound(p: [Vec3; 3], ray: &Ray) -> f32 {
+    let n = (p[1] - p[0]).cross(p[2] - p[0]);
+    let cos = n.normalize_or_zero().dot(ray.d.normalize()).abs();
+    let r = p
+        .iter()
+        .map(|q| (*q - ray.o).length())
+        .fold(0.0f32, f32::max);
+    if cos > 0.0 {
+        gamma(16) * r / cos
+    } else {
+        f32::INFINITY
+    }
+}
+
 /// A ray prepared for the watertight test: the permutation and shear.
 #[derive(Debug, Clone, Copy)]
 pub struct WatertightRay {
@@ -58,14 +86,25 @@ impl WatertightRay {
         self.t_max
     }
 
+    /// The axis along which hit distances are measured: the direction's
+    /// largest component. A reported `t` is, up to a few roundings, a convex
+    /// combination of the corners' distances `(p_i[kz] - o[kz]) / d[kz]`,
+    /// hence never below the smallest of them (the BVH culls boxes with
+    /// this bound).
+    pub fn kz(&self) -> usize {
+        self.kz
+    }
+
     /// Intersect triangle `(p0, p1, p2)` with `0 < t <= t_max`. The returned
     /// hit has `prim = 0`; the caller sets it.
     #[inline]
     pub fn intersect(&self, p0: Vec3, p1: Vec3, p2: Vec3, t_max: f32) -> Option<Hit> {
         let (kx, ky, kz) = (self.kx, self.ky, self.kz);
-        let a = p0 - self.o;
-        let b = p1 - self.o;
-        let c = p2 - self.o;
+        // Arrays indexed at run time compile to indexed loads; indexing a
+        // `Vec3` would be a chain of branches per component. Same values.
+        let a = (p0 - self.o).to_array();
+        let b = (p1 - self.o).to_array();
+        let c = (p2 - self.o).to_array();
         let ax = a[kx] - self.sx * a[kz];
         let ay = a[ky] - self.sy * a[kz];
         let bx = b[kx] - self.sx * b[kz];
@@ -75,14 +114,15 @@ impl WatertightRay {
         let mut u = cx * by - cy * bx;
         let mut v = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
-        if u == 0.0 || v == 0.0 || w == 0.0 {
+        // `|` rather than `||`: one branch instead of three (same result)
+        if (u == 0.0) | (v == 0.0) | (w == 0.0) {
             let f =
                 |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
             u = f(cx, by, cy, bx);
             v = f(ax, cy, ay, cx);
             w = f(bx, ay, by, ax);
         }
-        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        if ((u < 0.0) | (v < 0.0) | (w < 0.0)) & ((u > 0.0) | (v > 0.0) | (w > 0.0)) {
             return None;
         }
         let det = u + v + w;
