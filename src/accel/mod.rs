@@ -148,7 +148,7 @@ pub fn build(
 ) -> Result<Box<dyn Accelerator>> {
     match backend {
         Backend::Naive => Ok(Box::new(naive::Naive::new(soup))),
-        Backend::Bvh => Ok(Box::new(bvh::Bvh::new(soup, options.bvh_quality))),
+        Backend::Bvh => Ok(Box::new(bvh::Bvh::new(soup, options.bvh_quality)?)),
         Backend::Embree => build_embree(soup, options),
     }
 }

@@ -1,119 +1,297 @@
-//! BVH construction: a binary tree by binned SAH (Wald, "On fast Construction
-//! of SAH-based Bounding Volume Hierarchies", IEEE RT 2007: 16 bins on each
-//! axis of the centroid bounds), parallel over subtrees with `rayon::join`,
-//! then collapsed into 4-wide nodes by repeatedly opening the child with the
-//! largest surface area (the standard wide-BVH collapse, as in Embree's
-//! BVH4). `High` quality sweeps every split position of sorted centroids on
-//! all three axes instead of 16 bins.
+//! BVH construction, top-down, straight into 4-wide nodes.
 //!
-//! Depth bound: past binary depth [`SAH_DEPTH`], a node is split at its
-//! object median, so the binary depth is at most `SAH_DEPTH + log2(n) + 1`,
-//! and the 4-wide traversal stack (3 entries per level) fits in
-//! [`super::STACK_SIZE`] for any `n <= 2^28`.
+//! Splits are chosen by the surface area heuristic (MacDonald and Booth,
+//! "Heuristics for ray tracing using space subdivision", 1990):
+//!
+//! - [`BvhQuality::Fast`]: binned SAH (Wald, "On fast Construction of
+//!   SAH-based Bounding Volume Hierarchies", IEEE RT 2007) with [`BINS`]
+//!   bins on each of the three axes of the centroid bounds, binning in
+//!   parallel for large ranges.
+//! - [`BvhQuality::High`]: a full sweep over the centroids sorted on each
+//!   axis (every split position is evaluated) for ranges of up to
+//!   [`SWEEP_MAX`] triangles, [`HIGH_BINS`] bins above that.
+//!
+//! Both builds sweep ranges of up to [`SMALL`] triangles exhaustively, where
+//! that is cheaper than binning.
+//!
+//! A 4-wide node is made from up to three binary splits: its range is split,
+//! both halves are split again unless the SAH makes them leaves, and if a
+//! slot is still free the largest-area half that is not a leaf is split once
+//! more (Wald et al., "Getting Rid of Packets", RT 2008; Embree's BVH4
+//! opens the largest child the same way). Subtrees of more than
+//! [`PARALLEL_MIN`] triangles are built in parallel with rayon.
+//!
+//! Depth bound. Every path through a 4-wide node crosses at least two binary
+//! levels unless it ends in a leaf, so the 4-wide depth is at most
+//! `ceil(MAX_DEPTH / 2)` when no leaf is deeper than [`MAX_DEPTH`] binary
+//! levels. The builder guarantees that: a range of `n` triangles at binary
+//! depth `d` always satisfies `n <= LEAF_MAX * 2^(MAX_DEPTH - d)` (true at
+//! the root for any `n < 2^44`), and an SAH split whose larger half would
+//! break it at depth `d + 1` is replaced by an object-median split, which
+//! halves the range. The traversal stack ([`super::STACK_SIZE`]) is sized
+//! from this bound.
 
-use super::{Aabb, LEAF_MAX};
-use crate::math::Vec3;
+use super::BvhQuality;
+use super::node::{Aabb, ChildRef, LEAF_MAX, LEVELS, Node4, WIDTH};
+use glam::Vec3A;
+use rayon::prelude::*;
 
-/// Binary depth after which splits fall back to the object median.
-pub const SAH_DEPTH: usize = 48;
-const BINS: usize = 16;
-/// Cost of a traversal step relative to one triangle test in the SAH. Measured
-/// on `scenes/sphere-1m.toml` (bench, 2-core dev machine): 1.0 gave 1.35
-/// camera Mrays/s and 88.8 B/triangle, 4.0 gave 1.50 and 64.4 (larger leaves).
-const TRAVERSAL_COST: f32 = 4.0;
-const PARALLEL_THRESHOLD: usize = 4096;
+/// Deepest binary level of a leaf (the root is level 0).
+pub const MAX_DEPTH: usize = 42;
+/// Bins per axis of the `Fast` build.
+pub const BINS: usize = 16;
+/// Bins per axis of the `High` build above [`SWEEP_MAX`] triangles.
+pub const HIGH_BINS: usize = 64;
+/// Largest range the `High` build sweeps exhaustively.
+pub const SWEEP_MAX: usize = 1 << 16;
+/// Ranges up to this size are swept exhaustively by both builds: cheaper
+/// than binning there, and exact.
+pub const SMALL: usize = 32;
+/// Cost of a traversal step relative to one triangle test, charged per
+/// binary split in the SAH; it decides leaf against split for ranges of at
+/// most [`LEAF_MAX`]. Values from 2 to 8 measured alike on a 200k- and a
+/// 1.2M-triangle sphere.
+pub const TRAVERSAL_COST: f32 = 4.0;
+/// Subtrees at least this large are built in parallel.
+pub const PARALLEL_MIN: usize = 4096;
+/// Ranges at least this large are binned (and bounded) in parallel.
+const PARALLEL_BIN_MIN: usize = 1 << 15;
+const CHUNK: usize = 1 << 13;
 
-/// A triangle's bounds and centroid during the build.
+/// A triangle during the build: its bounds and original index.
 #[derive(Debug, Clone, Copy)]
 pub struct PrimRef {
+    /// The triangle's bounds.
     pub bounds: Aabb,
-    pub centroid: Vec3,
+    /// Index of the triangle in the input.
     pub id: u32,
 }
 
-/// A node of the binary build tree.
-pub enum BinNode {
-    /// `count` primitives starting at `start` of the reordered primitive list.
-    Leaf {
-        bounds: Aabb,
-        start: usize,
-        count: usize,
-    },
-    /// Two children.
-    Inner {
-        bounds: Aabb,
-        children: Box<[BinNode; 2]>,
-    },
+impl PrimRef {
+    /// Twice the centroid of the bounds (the factor 2 cancels out of every
+    /// comparison and saves a multiplication).
+    #[inline(always)]
+    fn center2(&self) -> Vec3A {
+        self.bounds.min + self.bounds.max
+    }
 }
 
-impl BinNode {
-    /// The node's bounds.
-    pub fn bounds(&self) -> &Aabb {
-        match self {
-            BinNode::Leaf { bounds, .. } | BinNode::Inner { bounds, .. } => bounds,
+/// Total order on centroids along `axis`, ties broken by index: sorts and
+/// medians are deterministic.
+fn by_center(axis: usize) -> impl Fn(&PrimRef, &PrimRef) -> std::cmp::Ordering {
+    move |a, b| {
+        a.center2()[axis]
+            .total_cmp(&b.center2()[axis])
+            .then(a.id.cmp(&b.id))
+    }
+}
+
+/// Bounds of the triangles and of their (doubled) centroids.
+#[derive(Debug, Clone, Copy)]
+struct Info {
+    bounds: Aabb,
+    centers: Aabb,
+}
+
+impl Info {
+    const EMPTY: Info = Info {
+        bounds: Aabb::EMPTY,
+        centers: Aabb::EMPTY,
+    };
+
+    fn merge(self, o: Info) -> Info {
+        Info {
+            bounds: self.bounds.union(&o.bounds),
+            centers: self.centers.union(&o.centers),
+        }
+    }
+
+    #[inline(always)]
+    fn add(&mut self, p: &PrimRef) {
+        self.bounds = self.bounds.union(&p.bounds);
+        self.centers.grow(p.center2());
+    }
+
+    fn of(prims: &[PrimRef]) -> Info {
+        let serial = |c: &[PrimRef]| {
+            let mut i = Info::EMPTY;
+            for p in c {
+                i.add(p);
+            }
+            i
+        };
+        if prims.len() >= PARALLEL_BIN_MIN {
+            prims
+                .par_chunks(CHUNK)
+                .map(serial)
+                .reduce(|| Info::EMPTY, Info::merge)
+        } else {
+            serial(prims)
         }
     }
 }
 
-fn bounds_of(prims: &[PrimRef]) -> (Aabb, Aabb) {
-    let mut b = Aabb::EMPTY;
-    let mut c = Aabb::EMPTY;
-    for p in prims {
-        b = b.union(&p.bounds);
-        c.grow(p.centroid);
+/// How a range is split (or not).
+#[derive(Debug, Clone, Copy)]
+enum Plan {
+    /// Make a leaf.
+    Leaf,
+    /// Triangles whose bin on `axis` is below `bin` go left.
+    Binned {
+        axis: usize,
+        lo: f32,
+        scale: f32,
+        bins: usize,
+        bin: usize,
+    },
+    /// The range is sorted on the split axis; the first `at` go left.
+    Sorted { at: usize },
+    /// Object median on `axis`.
+    Median { axis: usize },
+}
+
+/// A range of triangles waiting to become a leaf or a subtree.
+struct Item<'a> {
+    prims: &'a mut [PrimRef],
+    /// Position of `prims[0]` in the whole (reordered) list.
+    offset: usize,
+    depth: usize,
+    info: Info,
+    plan: Plan,
+}
+
+/// The largest range allowed at binary depth `depth`.
+fn capacity(depth: usize) -> usize {
+    let levels = MAX_DEPTH.saturating_sub(depth);
+    if levels >= 40 {
+        usize::MAX
+    } else {
+        LEAF_MAX << levels
     }
-    (b, c)
 }
 
-/// Best split found: axis and the number of primitives going left after
-/// partitioning by `key < threshold`.
-struct Split {
+/// SAH cost of a split, in triangle tests, given the parent's half area.
+#[inline]
+fn split_cost(parent_area: f32, left: f32, nl: usize, right: f32, nr: usize) -> f32 {
+    TRAVERSAL_COST + (left * nl as f32 + right * nr as f32) / parent_area
+}
+
+/// Per-axis bins: bounds and counts.
+#[derive(Clone)]
+struct Bins<const B: usize> {
+    bounds: [[Aabb; B]; 3],
+    count: [[u32; B]; 3],
+}
+
+impl<const B: usize> Bins<B> {
+    fn empty() -> Self {
+        Bins {
+            bounds: [[Aabb::EMPTY; B]; 3],
+            count: [[0; B]; 3],
+        }
+    }
+
+    fn merge(mut self, o: Self) -> Self {
+        for a in 0..3 {
+            for b in 0..B {
+                self.bounds[a][b] = self.bounds[a][b].union(&o.bounds[a][b]);
+                self.count[a][b] += o.count[a][b];
+            }
+        }
+        self
+    }
+}
+
+/// Bin index of a doubled centroid coordinate `c` (`lo` and `scale` from the
+/// centroid bounds); the same function places triangles when binning and
+/// when partitioning, so the counts the SAH saw are the counts it gets.
+#[inline(always)]
+fn bin_of(c: f32, lo: f32, scale: f32, bins: usize) -> usize {
+    // c >= lo, so the product is >= 0; `as` saturates
+    (((c - lo) * scale) as usize).min(bins - 1)
+}
+
+/// A split candidate: its SAH cost, the plan, and how many triangles go left.
+struct Candidate {
     cost: f32,
-    axis: usize,
-    threshold: f32,
+    plan: Plan,
+    left: usize,
 }
 
-fn binned_split(prims: &[PrimRef], cbounds: &Aabb) -> Option<Split> {
-    let mut best: Option<Split> = None;
+/// The best binned split of a range, or `None` when all centroids coincide.
+fn binned_plan<const B: usize>(prims: &[PrimRef], info: &Info) -> Option<Candidate> {
+    let lo = info.centers.min;
+    let extent = info.centers.max - lo;
+    // scale so that the largest centroid lands in the last bin
+    let scale = Vec3A::from_array(extent.to_array().map(|e| {
+        if e > 0.0 {
+            B as f32 * (1.0 - 1e-6) / e
+        } else {
+            0.0
+        }
+    }));
+    if scale == Vec3A::ZERO {
+        return None;
+    }
+    let bin_chunk = |c: &[PrimRef]| {
+        let mut bins = Bins::<B>::empty();
+        for p in c {
+            let ctr = p.center2();
+            for a in 0..3 {
+                let i = bin_of(ctr[a], lo[a], scale[a], B);
+                bins.bounds[a][i] = bins.bounds[a][i].union(&p.bounds);
+                bins.count[a][i] += 1;
+            }
+        }
+        bins
+    };
+    let bins = if prims.len() >= PARALLEL_BIN_MIN {
+        prims
+            .par_chunks(CHUNK)
+            .map(bin_chunk)
+            .reduce(Bins::empty, Bins::merge)
+    } else {
+        bin_chunk(prims)
+    };
+    let parent = info.bounds.half_area().max(f32::MIN_POSITIVE);
+    let mut best: Option<Candidate> = None;
     for axis in 0..3 {
-        let lo = cbounds.min[axis];
-        let extent = cbounds.max[axis] - lo;
-        if !(extent > 0.0) {
+        if scale[axis] == 0.0 {
             continue;
         }
-        let scale = BINS as f32 / extent;
-        let mut bins = [(Aabb::EMPTY, 0usize); BINS];
-        for p in prims {
-            let i = (((p.centroid[axis] - lo) * scale) as usize).min(BINS - 1);
-            bins[i].0 = bins[i].0.union(&p.bounds);
-            bins[i].1 += 1;
-        }
-        // sweep: right-side areas first
-        let mut right_area = [0.0f32; BINS];
+        // right-to-left: area and count of bins b.. on the right
+        let mut right_area = [0.0f32; B];
+        let mut right_count = [0usize; B];
         let mut acc = Aabb::EMPTY;
-        let mut count = 0;
-        let mut right_count = [0usize; BINS];
-        for i in (1..BINS).rev() {
-            acc = acc.union(&bins[i].0);
-            count += bins[i].1;
-            right_area[i] = acc.area();
-            right_count[i] = count;
+        let mut n = 0;
+        for b in (1..B).rev() {
+            acc = acc.union(&bins.bounds[axis][b]);
+            n += bins.count[axis][b] as usize;
+            right_area[b] = acc.half_area();
+            right_count[b] = n;
         }
         let mut left = Aabb::EMPTY;
-        let mut left_count = 0;
-        for i in 0..BINS - 1 {
-            left = left.union(&bins[i].0);
-            left_count += bins[i].1;
-            let rc = right_count[i + 1];
-            if left_count == 0 || rc == 0 {
+        let mut nl = 0;
+        for b in 1..B {
+            left = left.union(&bins.bounds[axis][b - 1]);
+            nl += bins.count[axis][b - 1] as usize;
+            let nr = right_count[b];
+            if nl == 0 || nr == 0 {
                 continue;
             }
-            let cost = left.area() * left_count as f32 + right_area[i + 1] * rc as f32;
-            if best.as_ref().is_none_or(|b| cost < b.cost) {
-                best = Some(Split {
-                    cost,
+            let cost = split_cost(parent, left.half_area(), nl, right_area[b], nr);
+            if best.as_ref().is_none_or(|c| cost < c.cost) {
+                let plan = Plan::Binned {
                     axis,
-                    threshold: lo + (i + 1) as f32 / scale,
+                    lo: lo[axis],
+                    scale: scale[axis],
+                    bins: B,
+                    bin: b,
+                };
+                best = Some(Candidate {
+                    cost,
+                    plan,
+                    left: nl,
                 });
             }
         }
@@ -121,119 +299,332 @@ fn binned_split(prims: &[PrimRef], cbounds: &Aabb) -> Option<Split> {
     best
 }
 
-/// Full sweep over sorted centroids on every axis (the `High` quality).
-/// Sorts `prims` by the winning axis and returns the split index and cost.
-fn sweep_split(prims: &mut [PrimRef]) -> Option<(f32, usize)> {
+/// `x`'s bits, mapped so that unsigned order is `f32::total_cmp` order.
+#[inline(always)]
+fn order_bits(x: f32) -> u32 {
+    let b = x.to_bits();
+    if b >> 31 == 1 { !b } else { b | 1 << 31 }
+}
+
+/// Sort keys of `prims` along `axis`: centroid, then position (so sorts
+/// are deterministic), packed in a `u64` whose low half is the position.
+fn sort_keys(prims: &[PrimRef], axis: usize, keys: &mut [u64]) {
+    for (i, (k, p)) in keys.iter_mut().zip(prims).enumerate() {
+        *k = (order_bits(p.center2()[axis]) as u64) << 32 | i as u64;
+    }
+    keys.sort_unstable();
+}
+
+/// The best split over every position of the centroids sorted on each
+/// axis; leaves `prims` sorted on the winning axis.
+fn sweep_plan(prims: &mut [PrimRef], info: &Info) -> Option<Candidate> {
     let n = prims.len();
+    let parent = info.bounds.half_area().max(f32::MIN_POSITIVE);
+    // scratch on the stack for small ranges, the heap for large ones
+    let (mut small_area, mut small_keys) = ([0.0f32; SMALL], [0u64; SMALL]);
+    let (mut large_area, mut large_keys) = (Vec::new(), Vec::new());
+    let (right_area, keys) = if n <= SMALL {
+        (&mut small_area[..n], &mut small_keys[..n])
+    } else {
+        large_area.resize(n, 0.0f32);
+        large_keys.resize(n, 0u64);
+        (&mut large_area[..], &mut large_keys[..])
+    };
+    let bounds = |k: u64| &prims[k as u32 as usize].bounds;
     let mut best: Option<(f32, usize, usize)> = None;
-    let mut right_area = vec![0.0f32; n];
     for axis in 0..3 {
-        prims.sort_unstable_by(|a, b| {
-            a.centroid[axis]
-                .total_cmp(&b.centroid[axis])
-                .then(a.id.cmp(&b.id))
-        });
+        if !(info.centers.max[axis] > info.centers.min[axis]) {
+            continue;
+        }
+        sort_keys(prims, axis, keys);
+        // right_area[i]: area of the triangles from sorted position i on
         let mut acc = Aabb::EMPTY;
-        for i in (1..n).rev() {
-            acc = acc.union(&prims[i].bounds);
-            right_area[i] = acc.area();
+        for (ra, &k) in right_area.iter_mut().zip(keys.iter()).rev() {
+            acc = acc.union(bounds(k));
+            *ra = acc.half_area();
         }
         let mut left = Aabb::EMPTY;
-        for i in 0..n - 1 {
-            left = left.union(&prims[i].bounds);
-            let cost = left.area() * (i + 1) as f32 + right_area[i + 1] * (n - i - 1) as f32;
-            if best.is_none_or(|b| cost < b.0) {
-                best = Some((cost, axis, i + 1));
+        for (i, (&k, &ra)) in keys.iter().zip(&right_area[1..]).enumerate() {
+            left = left.union(bounds(k));
+            let nl = i + 1;
+            let cost = split_cost(parent, left.half_area(), nl, ra, n - nl);
+            if best.is_none_or(|(c, _, _)| cost < c) {
+                best = Some((cost, axis, nl));
             }
         }
     }
     let (cost, axis, at) = best?;
-    prims.sort_unstable_by(|a, b| {
-        a.centroid[axis]
-            .total_cmp(&b.centroid[axis])
-            .then(a.id.cmp(&b.id))
-    });
-    Some((cost, at))
-}
-
-fn partition(prims: &mut [PrimRef], axis: usize, threshold: f32) -> usize {
-    let mut i = 0;
-    for j in 0..prims.len() {
-        if prims[j].centroid[axis] < threshold {
-            prims.swap(i, j);
-            i += 1;
+    // reorder along the winning axis
+    sort_keys(prims, axis, keys);
+    if n <= SMALL {
+        let mut sorted = [prims[0]; SMALL];
+        for (s, &k) in sorted.iter_mut().zip(keys.iter()) {
+            *s = prims[k as u32 as usize];
         }
+        prims.copy_from_slice(&sorted[..n]);
+    } else {
+        let sorted: Vec<PrimRef> = keys.iter().map(|&k| prims[k as u32 as usize]).collect();
+        prims.copy_from_slice(&sorted);
     }
-    i
+    Some(Candidate {
+        cost,
+        plan: Plan::Sorted { at },
+        left: at,
+    })
 }
 
-fn median_split(prims: &mut [PrimRef], cbounds: &Aabb) -> usize {
-    let e = cbounds.max - cbounds.min;
-    let axis = if e.x >= e.y && e.x >= e.z {
+fn longest_axis(e: Vec3A) -> usize {
+    if e.x >= e.y && e.x >= e.z {
         0
     } else if e.y >= e.z {
         1
     } else {
         2
-    };
-    let mid = prims.len() / 2;
-    prims.select_nth_unstable_by(mid, |a, b| {
-        a.centroid[axis]
-            .total_cmp(&b.centroid[axis])
-            .then(a.id.cmp(&b.id))
-    });
-    mid
+    }
 }
 
-/// Build the binary tree over `prims` (reordered in place); `offset` is the
-/// position of `prims[0]` in the whole list.
-pub fn build(prims: &mut [PrimRef], offset: usize, depth: usize, high: bool) -> BinNode {
-    let (bounds, cbounds) = bounds_of(prims);
-    let n = prims.len();
-    let leaf = BinNode::Leaf {
-        bounds,
-        start: offset,
-        count: n,
-    };
-    if n <= 1 {
-        return leaf;
+impl<'a> Item<'a> {
+    /// Measure a range and decide how it is split.
+    fn new(prims: &'a mut [PrimRef], offset: usize, depth: usize, quality: BvhQuality) -> Self {
+        let info = Info::of(prims);
+        Item::with_info(prims, offset, depth, info, quality)
     }
-    let leaf_cost = n as f32;
-    let area = bounds.area().max(f32::MIN_POSITIVE);
-    let mid = if depth >= SAH_DEPTH {
-        median_split(prims, &cbounds)
-    } else if high && n <= 1 << 16 {
-        match sweep_split(prims) {
-            Some((cost, at)) if n > LEAF_MAX || TRAVERSAL_COST + cost / area < leaf_cost => at,
-            Some(_) => return leaf,
-            None => median_split(prims, &cbounds),
+
+    /// Like [`Item::new`], with the range's bounds already known.
+    fn with_info(
+        prims: &'a mut [PrimRef],
+        offset: usize,
+        depth: usize,
+        info: Info,
+        quality: BvhQuality,
+    ) -> Self {
+        let mut item = Item {
+            prims,
+            offset,
+            depth,
+            info,
+            plan: Plan::Leaf,
+        };
+        item.plan = item.choose(quality);
+        item
+    }
+
+    fn len(&self) -> usize {
+        self.prims.len()
+    }
+
+    fn choose(&mut self, quality: BvhQuality) -> Plan {
+        let n = self.len();
+        if n <= 1 || self.depth >= MAX_DEPTH {
+            debug_assert!(n <= LEAF_MAX, "the depth bound keeps deep ranges small");
+            return Plan::Leaf;
         }
-    } else {
-        match binned_split(prims, &cbounds) {
-            Some(s) if n > LEAF_MAX || TRAVERSAL_COST + s.cost / area < leaf_cost => {
-                partition(prims, s.axis, s.threshold)
+        let median = Plan::Median {
+            axis: longest_axis(self.info.centers.max - self.info.centers.min),
+        };
+        let best = match quality {
+            _ if n <= SMALL => sweep_plan(self.prims, &self.info),
+            BvhQuality::Fast => binned_plan::<BINS>(self.prims, &self.info),
+            BvhQuality::High if n <= SWEEP_MAX => sweep_plan(self.prims, &self.info),
+            BvhQuality::High => binned_plan::<HIGH_BINS>(self.prims, &self.info),
+        };
+        let Some(best) = best else {
+            // every centroid equal: split by count if the leaf would be too big
+            return if n > LEAF_MAX { median } else { Plan::Leaf };
+        };
+        if n <= LEAF_MAX && n as f32 <= best.cost {
+            return Plan::Leaf;
+        }
+        // keep the depth bound: each half must fit one level further down
+        if best.left.max(n - best.left) > capacity(self.depth + 1) {
+            median
+        } else {
+            best.plan
+        }
+    }
+
+    /// Apply the plan: two halves one level down.
+    fn split(self, quality: BvhQuality) -> (Item<'a>, Item<'a>) {
+        let n = self.len();
+        // the binned partition measures both halves as it goes
+        let (mid, infos) = match self.plan {
+            Plan::Leaf => unreachable!("split is only called on planned splits"),
+            Plan::Binned {
+                axis,
+                lo,
+                scale,
+                bins,
+                bin,
+            } => {
+                let (mid, l, r) = partition(self.prims, |p| {
+                    bin_of(p.center2()[axis], lo, scale, bins) < bin
+                });
+                (mid, Some((l, r)))
             }
-            Some(_) => return leaf,
-            // every centroid equal: split by count
-            None if n > LEAF_MAX => median_split(prims, &cbounds),
-            None => return leaf,
+            Plan::Sorted { at } => (at, None),
+            Plan::Median { axis } => {
+                self.prims.select_nth_unstable_by(n / 2, by_center(axis));
+                (n / 2, None)
+            }
+        };
+        debug_assert!(0 < mid && mid < n, "a split leaves both halves non-empty");
+        let (l, r) = self.prims.split_at_mut(mid);
+        let depth = self.depth + 1;
+        let offset = self.offset;
+        let make = |prims, offset, info: Option<Info>| match info {
+            Some(info) => Item::with_info(prims, offset, depth, info, quality),
+            None => Item::new(prims, offset, depth, quality),
+        };
+        let (li, ri) = (infos.map(|i| i.0), infos.map(|i| i.1));
+        if n >= PARALLEL_MIN {
+            rayon::join(|| make(l, offset, li), || make(r, offset + mid, ri))
+        } else {
+            (make(l, offset, li), make(r, offset + mid, ri))
         }
-    };
-    let mid = if mid == 0 || mid == n { n / 2 } else { mid };
-    let (l, r) = prims.split_at_mut(mid);
-    let (left, right) = if n >= PARALLEL_THRESHOLD {
-        rayon::join(
-            || build(l, offset, depth + 1, high),
-            || build(r, offset + mid, depth + 1, high),
-        )
-    } else {
-        (
-            build(l, offset, depth + 1, high),
-            build(r, offset + mid, depth + 1, high),
-        )
-    };
-    BinNode::Inner {
-        bounds,
-        children: Box::new([left, right]),
     }
+}
+
+/// In-place partition: the elements for which `left` holds first. Returns
+/// their count and the bounds of both halves.
+fn partition(prims: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> (usize, Info, Info) {
+    let (mut li, mut ri) = (Info::EMPTY, Info::EMPTY);
+    let (mut i, mut j) = (0, prims.len());
+    loop {
+        while i < j && left(&prims[i]) {
+            li.add(&prims[i]);
+            i += 1;
+        }
+        while i < j && !left(&prims[j - 1]) {
+            ri.add(&prims[j - 1]);
+            j -= 1;
+        }
+        if i >= j {
+            return (i, li, ri);
+        }
+        prims.swap(i, j - 1);
+        li.add(&prims[i]);
+        ri.add(&prims[j - 1]);
+        i += 1;
+        j -= 1;
+    }
+}
+
+/// A built subtree before it is flattened into the node array.
+enum Built {
+    Leaf { start: usize, count: usize },
+    Inner(Box<[(Aabb, Built)]>),
+}
+
+/// Build the subtree for an item that splits.
+fn build_inner(item: Item<'_>, quality: BvhQuality) -> Built {
+    debug_assert!(!matches!(item.plan, Plan::Leaf));
+    let large = item.len() >= PARALLEL_MIN;
+    let mut slots: Vec<Item<'_>> = Vec::with_capacity(WIDTH);
+    slots.push(item);
+    // every slot that is not a leaf is split LEVELS times: each node spans
+    // at least LEVELS binary levels
+    for _ in 0..LEVELS {
+        let mut next = Vec::with_capacity(WIDTH);
+        for s in slots {
+            if matches!(s.plan, Plan::Leaf) {
+                next.push(s);
+            } else {
+                let (c, d) = s.split(quality);
+                next.extend([c, d]);
+            }
+        }
+        slots = next;
+    }
+    // free slots: split the largest-area child that is not a leaf
+    while slots.len() < WIDTH {
+        let pick = slots
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| !matches!(s.plan, Plan::Leaf))
+            .max_by(|x, y| {
+                x.1.info
+                    .bounds
+                    .half_area()
+                    .total_cmp(&y.1.info.bounds.half_area())
+            })
+            .map(|(i, _)| i);
+        let Some(i) = pick else { break };
+        let (c, d) = slots.swap_remove(i).split(quality);
+        slots.extend([c, d]);
+    }
+    let child = |s: Item<'_>| {
+        let bounds = s.info.bounds;
+        let built = match s.plan {
+            Plan::Leaf => Built::Leaf {
+                start: s.offset,
+                count: s.len(),
+            },
+            _ => build_inner(s, quality),
+        };
+        (bounds, built)
+    };
+    let children: Vec<(Aabb, Built)> = if large {
+        slots.into_par_iter().map(child).collect()
+    } else {
+        slots.into_iter().map(child).collect()
+    };
+    Built::Inner(children.into_boxed_slice())
+}
+
+/// Shape of a finished tree, for tests and reports.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct TreeStats {
+    /// 4-wide inner nodes.
+    pub nodes: usize,
+    /// Leaves.
+    pub leaves: usize,
+    /// Most 4-wide inner nodes on a path from the root to a leaf.
+    pub depth: usize,
+}
+
+fn count_inner(built: &Built) -> usize {
+    match built {
+        Built::Leaf { .. } => 0,
+        Built::Inner(children) => 1 + children.iter().map(|c| count_inner(&c.1)).sum::<usize>(),
+    }
+}
+
+fn flatten(built: &Built, nodes: &mut Vec<Node4>, stats: &mut TreeStats, depth: usize) -> ChildRef {
+    match built {
+        Built::Leaf { start, count } => {
+            stats.leaves += 1;
+            ChildRef::leaf(*start, *count)
+        }
+        Built::Inner(children) => {
+            stats.nodes += 1;
+            stats.depth = stats.depth.max(depth + 1);
+            let index = nodes.len();
+            nodes.push(Node4::EMPTY);
+            let mut node = Node4::EMPTY;
+            for (k, (bounds, child)) in children.iter().enumerate() {
+                node.set(k, bounds, flatten(child, nodes, stats, depth + 1));
+            }
+            nodes[index] = node;
+            ChildRef::inner(index)
+        }
+    }
+}
+
+/// Build over `prims` (reordered into leaf order). Returns the nodes (in
+/// depth-first order), the root reference (a leaf when everything fits in
+/// one) and the tree's shape.
+pub fn build(prims: &mut [PrimRef], quality: BvhQuality) -> (Vec<Node4>, ChildRef, TreeStats) {
+    let mut stats = TreeStats::default();
+    let mut nodes = Vec::new();
+    let root = Item::new(prims, 0, 0, quality);
+    let built = match root.plan {
+        Plan::Leaf => Built::Leaf {
+            start: 0,
+            count: root.len(),
+        },
+        _ => build_inner(root, quality),
+    };
+    nodes.reserve_exact(count_inner(&built));
+    let root = flatten(&built, &mut nodes, &mut stats, 0);
+    (nodes, root, stats)
 }

@@ -1,0 +1,395 @@
+//! BVH traversal: a closest-hit loop that visits children near-first (sorted
+//! by entry distance) and an any-hit loop for occlusion that descends into
+//! the nearest child first, both over a fixed-size stack on the call stack
+//! (no allocation per ray).
+//!
+//! The slab test (Kay and Kajiya, "Ray Tracing Complex Scenes", SIGGRAPH
+//! 1986; Williams et al., "An Efficient and Robust Ray-Box Intersection
+//! Algorithm", JGT 2005) tests the four child boxes of a node at once, with
+//! the robustness measures of Ize ("Robust BVH Ray Traversal", JCGT 2(2),
+//! 2013) and pbrt-v4 (section 6.8.2), so that no box holding a triangle the
+//! watertight test would report is ever culled:
+//!
+//! - the near and far planes of each axis are chosen by the sign of the
+//!   direction, so `1 / 0 = +-inf` needs no special case;
+//! - `0 * inf = NaN` (a ray parallel to a slab with its origin on a plane)
+//!   must impose no constraint: the running maxima and minima are written
+//!   `if t > t0 { t } else { t0 }`, which keeps `t0` when `t` is NaN;
+//! - the far distance is enlarged by `1 + 2 gamma(4)` (pbrt-v4 uses
+//!   `gamma(3)`; one more covers the leaf test's rounding of `t`, below):
+//!   rounding can neither cull a box the ray touches nor a box whose entry
+//!   equals the best `t` so far (the tie rule needs those);
+//! - boxes are culled against the best `t` (or `t_max`) by their near plane
+//!   on the leaf test's distance axis only, see [`SlabRay::test`];
+//! - every box is padded, per ray, by the rounding error of the watertight
+//!   test's sheared vertex coordinates (Woop et al. 2013, section 4; bounded
+//!   as in pbrt-v4 section 6.8.4): that test can report a hit for a ray that
+//!   passes beside a triangle by up to that error, which must not be lost
+//!   when the triangle's edge lies on its box's face. The padding costs
+//!   nothing per node: it moves the origin used for near and far planes.
+//!
+//! Leaves use the naive backend's routine ([`super::super::triangle`]) on
+//! the same `f32` corners, and the same tie rule: a hit at the same `t` as
+//! the best so far replaces it only if its original index is lower.
+
+use super::node::{Aabb, ChildRef, Node4, WIDTH};
+use super::{Bvh, STACK_SIZE};
+use crate::accel::Hit;
+use crate::accel::triangle::WatertightRay;
+use crate::math::{Ray, Vec3, next_float_down, next_float_up};
+
+/// `1 + 2 gamma(4)`: the relative enlargement of far distances.
+const WIDEN: f32 = {
+    let g4 = 4.0 * (f32::EPSILON * 0.5) / (1.0 - 4.0 * (f32::EPSILON * 0.5));
+    1.0 + 2.0 * g4
+};
+
+/// `gamma(16)`: the box padding's factor on the ray's distance to the scene.
+const PAD_GAMMA: f32 = 16.0 * (f32::EPSILON * 0.5) / (1.0 - 16.0 * (f32::EPSILON * 0.5));
+
+/// A ray prepared for the slab test.
+#[derive(Debug, Clone, Copy)]
+struct SlabRay {
+    /// Origin used with the near plane of each axis (padded outwards).
+    o_near: [f32; 3],
+    /// Origin used with the far plane of each axis (padded outwards).
+    o_far: [f32; 3],
+    /// Reciprocal direction.
+    inv: [f32; 3],
+    /// Whether each direction component is negative (`-0` included).
+    neg: [bool; 3],
+    /// The triangle test's distance axis ([`WatertightRay::kz`]).
+    kz: usize,
+}
+
+impl SlabRay {
+    /// Prepare `ray` for a BVH whose triangles lie in `scene`.
+    #[inline]
+    fn new(ray: &Ray, wr: &WatertightRay, scene: &Aabb) -> Self {
+        let inv = ray.d.recip();
+        // Every vertex p satisfies |p - o| <= s componentwise; the sheared
+        // coordinates of the watertight test are off by at most about
+        // gamma(5) (|x| + |z|) of those, and the edge functions by a few
+        // ulps more: pad by gamma(16) of the sum, at least one ulp.
+        let (lo, hi) = (Vec3::from(scene.min), Vec3::from(scene.max));
+        let s = (lo - ray.o).abs().max((hi - ray.o).abs());
+        let pad = PAD_GAMMA * (s.x + s.y + s.z);
+        let lo = (ray.o - Vec3::splat(pad)).to_array().map(next_float_down);
+        let hi = (ray.o + Vec3::splat(pad)).to_array().map(next_float_up);
+        let inv = inv.to_array();
+        let neg = inv.map(|x| x.is_sign_negative());
+        // d >= 0: near plane min - (o + pad), far plane max - (o - pad);
+        // d < 0: near plane max - (o - pad), far plane min - (o + pad)
+        let pick = |a: usize, near: bool| if neg[a] == near { lo[a] } else { hi[a] };
+        SlabRay {
+            o_near: [pick(0, true), pick(1, true), pick(2, true)],
+            o_far: [pick(0, false), pick(1, false), pick(2, false)],
+            inv,
+            neg,
+            kz: wr.kz(),
+        }
+    }
+
+    /// Test the ray against the node's four (padded) boxes. Returns, per
+    /// child, the entry distance (for near-first ordering) and the cull key
+    /// (the distance to the box's near plane on the triangle test's axis
+    /// `kz`), and the mask of children to visit: those whose box the ray
+    /// crosses at some `t >= 0` and whose cull key is at most `t_max`
+    /// (widened).
+    ///
+    /// Why cull on `kz` alone: the watertight test's `t` is a convex
+    /// combination of the corners' `kz` distances, so it cannot be less than
+    /// the box's near `kz` distance, whereas for a large, thin triangle seen
+    /// from far away it can be well below the ray's true entry into its box
+    /// (relative errors of 1e-4 were observed). Culling on the full entry
+    /// distance would then skip a hit the naive backend reports.
+    #[inline(always)]
+    fn test(&self, node: &Node4, t_max: f32) -> ([f32; WIDTH], [f32; WIDTH], u32) {
+        let mut t0 = [0.0f32; WIDTH];
+        let mut t1 = [f32::INFINITY; WIDTH];
+        for a in 0..3 {
+            let (near, far) = self.planes(node, a);
+            for k in 0..WIDTH {
+                let tn = (near[k] - self.o_near[a]) * self.inv[a];
+                let tf = (far[k] - self.o_far[a]) * self.inv[a];
+                // NaN (0 * inf) leaves the bound unchanged
+                t0[k] = if tn > t0[k] { tn } else { t0[k] };
+                t1[k] = if tf < t1[k] { tf } else { t1[k] };
+            }
+        }
+        let kz = self.kz;
+        let (near, _) = self.planes(node, kz);
+        let mut key = [0.0f32; WIDTH];
+        let limit = t_max * WIDEN;
+        let mut mask = 0;
+        for k in 0..WIDTH {
+            key[k] = (near[k] - self.o_near[kz]) * self.inv[kz];
+            mask |= (((t0[k] <= t1[k] * WIDEN) & (key[k] <= limit)) as u32) << k;
+        }
+        (t0, key, mask)
+    }
+
+    /// The near and far planes of `axis` for this ray's direction.
+    #[inline(always)]
+    fn planes<'n>(&self, node: &'n Node4, axis: usize) -> (&'n [f32; WIDTH], &'n [f32; WIDTH]) {
+        if self.neg[axis] {
+            (&node.max[axis], &node.min[axis])
+        } else {
+            (&node.min[axis], &node.max[axis])
+        }
+    }
+}
+
+/// A deferred child: its reference and cull key.
+#[derive(Debug, Clone, Copy)]
+struct Entry {
+    child: ChildRef,
+    key: f32,
+}
+
+impl Bvh {
+    /// The closest hit with `0 < t <= ray.t_max`; equal `t` goes to the
+    /// lowest original index.
+    pub(super) fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+        let mut cur = self.root?;
+        if !ray.is_finite() {
+            return None;
+        }
+        let wr = WatertightRay::new(ray);
+        let sr = SlabRay::new(ray, &wr, &self.bounds);
+        let mut best: Option<Hit> = None;
+        let mut t_max = ray.t_max;
+        let mut stack = [Entry {
+            child: ChildRef(0),
+            key: 0.0,
+        }; STACK_SIZE];
+        let mut sp = 0;
+        loop {
+            if !cur.is_leaf() {
+                let node = &self.nodes[cur.index()];
+                let (t, key, mask) = sr.test(node, t_max);
+                if mask != 0 {
+                    let first = mask.trailing_zeros() as usize;
+                    let rest = mask & (mask - 1);
+                    if rest == 0 {
+                        // one child: descend without touching the stack
+                        cur = node.child[first];
+                        continue;
+                    }
+                    if rest & (rest - 1) == 0 {
+                        // two: descend into the nearer, push the farther
+                        let second = rest.trailing_zeros() as usize;
+                        let (near, far) = if t[second] < t[first] {
+                            (second, first)
+                        } else {
+                            (first, second)
+                        };
+                        stack[sp] = Entry {
+                            child: node.child[far],
+                            key: key[far],
+                        };
+                        sp += 1;
+                        cur = node.child[near];
+                        continue;
+                    }
+                    // more: sort by entry distance, push all but the nearest,
+                    // far ones first
+                    let mut order = [0u64; WIDTH];
+                    let mut n = 0;
+                    let mut m = mask;
+                    while m != 0 {
+                        let k = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        // t >= 0, so its bits order like its value
+                        let ok = (t[k].to_bits() as u64) << 32 | k as u64;
+                        let mut j = n;
+                        while j > 0 && order[j - 1] < ok {
+                            order[j] = order[j - 1];
+                            j -= 1;
+                        }
+                        order[j] = ok;
+                        n += 1;
+                    }
+                    // order descend: the nearest is last
+                    for &ok in &order[..n - 1] {
+                        let k = ok as u32 as usize;
+                        stack[sp] = Entry {
+                            child: node.child[k],
+                            key: key[k],
+                        };
+                        sp += 1;
+                    }
+                    cur = node.child[order[n - 1] as u32 as usize];
+                    continue;
+                }
+            } else {
+                let range = cur.range();
+                let ids = &self.ids[range.clone()];
+                for (tri, &id) in self.tris[range].iter().zip(ids) {
+                    if let Some(mut h) = wr.intersect(tri[0], tri[1], tri[2], t_max) {
+                        // h.t <= t_max: closer, or a tie won by the lower index
+                        if h.t < t_max || best.is_none_or(|b| id < b.prim) {
+                            h.prim = id;
+                            t_max = h.t;
+                            best = Some(h);
+                        }
+                    }
+                }
+            }
+            // pop the next child the ray can still reach before t_max
+            loop {
+                if sp == 0 {
+                    return best;
+                }
+                sp -= 1;
+                let e = stack[sp];
+                if e.key <= t_max * WIDEN {
+                    cur = e.child;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Whether any hit exists with `0 < t <= ray.t_max`.
+    pub(super) fn any_hit(&self, ray: &Ray) -> bool {
+        let Some(mut cur) = self.root else {
+            return false;
+        };
+        if !ray.is_finite() {
+            return false;
+        }
+        let wr = WatertightRay::new(ray);
+        let sr = SlabRay::new(ray, &wr, &self.bounds);
+        let t_max = ray.t_max;
+        let mut stack = [ChildRef(0); STACK_SIZE];
+        let mut sp = 0;
+        loop {
+            if !cur.is_leaf() {
+                let node = &self.nodes[cur.index()];
+                let (t, _, mask) = sr.test(node, t_max);
+                if mask != 0 {
+                    // descend into the nearest child (an occluder near the
+                    // origin is found sooner), push the others
+                    let mut near = mask.trailing_zeros() as usize;
+                    let mut m = mask & (mask - 1);
+                    while m != 0 {
+                        let k = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        let other = if t[k] < t[near] {
+                            std::mem::replace(&mut near, k)
+                        } else {
+                            k
+                        };
+                        stack[sp] = node.child[other];
+                        sp += 1;
+                    }
+                    cur = node.child[near];
+                    continue;
+                }
+            } else {
+                for tri in &self.tris[cur.range()] {
+                    if wr.intersect(tri[0], tri[1], tri[2], t_max).is_some() {
+                        return true;
+                    }
+                }
+            }
+            if sp == 0 {
+                return false;
+            }
+            sp -= 1;
+            cur = stack[sp];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3A;
+
+    /// A node holding the unit cube in slot 0 (the other slots empty), and
+    /// the slab test's mask and entry for `ray`.
+    fn unit_cube(ray: Ray) -> (bool, f32, f32) {
+        let cube = Aabb {
+            min: Vec3A::ZERO,
+            max: Vec3A::ONE,
+        };
+        let mut node = Node4::EMPTY;
+        node.set(0, &cube, ChildRef::leaf(0, 1));
+        let wr = WatertightRay::new(&ray);
+        let (t, key, mask) = SlabRay::new(&ray, &wr, &cube).test(&node, ray.t_max);
+        assert_eq!(mask & !1, 0, "an empty slot was hit by {ray:?}");
+        (mask == 1, t[0], key[0])
+    }
+
+    #[test]
+    fn axis_parallel_rays_on_slab_planes_enter_the_box() {
+        for y in [0.0, 1.0] {
+            for z in [0.0, 0.5, 1.0] {
+                // 1 / d = inf on y and z, origin exactly on their planes
+                let (hit, t, _) = unit_cube(Ray::new(Vec3::new(-1.0, y, z), Vec3::X));
+                assert!(hit && (t - 1.0).abs() < 1e-5, "y {y} z {z}");
+                let (hit, _, _) = unit_cube(Ray::new(Vec3::new(2.0, y, z), -Vec3::X));
+                assert!(hit, "y {y} z {z}, backwards");
+                let d = Vec3::new(1.0, -0.0, 0.0);
+                assert!(unit_cube(Ray::new(Vec3::new(-1.0, y, z), d)).0);
+            }
+        }
+        // parallel but outside the slab
+        assert!(!unit_cube(Ray::new(Vec3::new(-1.0, -1e-3, 0.5), Vec3::X)).0);
+        assert!(!unit_cube(Ray::new(Vec3::new(-1.0, 1.001, 0.5), Vec3::X)).0);
+    }
+
+    #[test]
+    fn rays_inside_behind_and_beyond() {
+        let (hit, t, _) = unit_cube(Ray::new(
+            Vec3::splat(0.5),
+            Vec3::new(0.3, -0.4, 0.5).normalize(),
+        ));
+        assert!(hit && t == 0.0, "starting inside enters at 0");
+        assert!(
+            !unit_cube(Ray::new(Vec3::new(2.0, 0.5, 0.5), Vec3::X)).0,
+            "behind"
+        );
+        let r = Ray {
+            t_max: 0.9,
+            ..Ray::new(Vec3::new(-1.0, 0.5, 0.5), Vec3::X)
+        };
+        assert!(!unit_cube(r).0, "beyond t_max");
+        // a box whose near plane is exactly at t_max stays (ties need it)
+        assert!(unit_cube(Ray { t_max: 1.0, ..r }).0);
+        // grazing a face at a tiny angle
+        let d = Vec3::new(1.0, 1e-7, 0.0).normalize();
+        assert!(unit_cube(Ray::new(Vec3::new(-1.0, 1.0 - 1e-8, 0.5), d)).0);
+    }
+
+    #[test]
+    fn cull_key_is_the_near_plane_on_the_distance_axis() {
+        // kz = x; the ray enters through the y face at t = 2 but the box's
+        // x range starts at t = 1: the key is the lower of the two
+        let r = Ray::new(
+            Vec3::new(-1.0, -1.0, 0.5),
+            Vec3::new(1.0, 0.5, 0.0).normalize(),
+        );
+        let (hit, t, key) = unit_cube(r);
+        let s = 1.25f32.sqrt();
+        assert!(hit && (t - 2.0 * s).abs() < 1e-5 && (key - s).abs() < 1e-5);
+    }
+
+    #[test]
+    fn empty_slots_are_never_entered() {
+        let comps = [1.0, -1.0, 0.0, -0.0, 1e-30];
+        for x in comps {
+            for y in comps {
+                for z in comps {
+                    let d = Vec3::new(x, y, z);
+                    if d.length() > 0.0 {
+                        unit_cube(Ray::new(Vec3::splat(0.5), d.normalize()));
+                        unit_cube(Ray::new(Vec3::ZERO, d.normalize()));
+                    }
+                }
+            }
+        }
+    }
+}
