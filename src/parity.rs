@@ -10,10 +10,15 @@
 //!   squared), where rounding decides;
 //! - `extent`: a shadow ray whose first hit lies within `1e-4` (relative) of
 //!   its `t_max`, so the query's own rounding decides;
+//! - `precision`: a distance disagreement on the same triangle within the
+//!   `f32` error bound of the distance (`gamma(16) R / |cos|`, `R` the
+//!   farthest corner from the origin): a triangle large next to the hit
+//!   distance cannot fix `t` more finely in either backend;
 //! - `unexplained`: anything else. `parity` exits non-zero if any exists.
 //!
 //! Distances disagree when `|t_a - t_b| > 1e-5 * max(1, t)` (hard case 11).
 
+use crate::accel::triangle::distance_error_bound;
 use crate::accel::{self, AccelOptions, Accelerator, Backend, Hit};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
@@ -146,6 +151,13 @@ fn classify(scene: &Scene, ray: &Ray, a: Option<Hit>, b: Option<Hit>) -> &'stati
     "unexplained"
 }
 
+/// Same primitive, distances within the `f32` error bound of the distance
+/// itself ([`distance_error_bound`]): a triangle large next to the hit
+/// distance, seen at an angle, cannot fix `t` more finely.
+fn within_precision(scene: &Scene, ray: &Ray, a: &Hit, other_t: f32) -> bool {
+    (a.t - other_t).abs() <= distance_error_bound(scene.triangle(a.prim), ray)
+}
+
 fn far_enough(a: f32, b: f32) -> bool {
     (a - b).abs() > 1e-5 * a.abs().max(b.abs()).max(1.0)
 }
@@ -193,7 +205,12 @@ fn compare_kind(
                 (Some(a), Some(b)) if far_enough(a.t, b.t) => 2,
                 _ => return None,
             };
-            let class = classify(scene, ray, x, y);
+            let class = match (which, x) {
+                (2, Some(a)) if within_precision(scene, ray, &a, y.map_or(a.t, |b| b.t)) => {
+                    "precision"
+                }
+                _ => classify(scene, ray, x, y),
+            };
             Some((which, class, format!("{ray:?}: {x:?} vs {y:?}")))
         })
         .collect();
