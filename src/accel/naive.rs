@@ -1,25 +1,40 @@
 //! The brute-force backend: every ray is tested against every triangle with
-//! the watertight routine of [`super::triangle`]. Quadratic and slow; it is
+//! the watertight routine of [`super::triangle`], four at a time in index
+//! order, exactly as the BVH runs it in its leaves. Quadratic and slow; it is
 //! the oracle the other backends are checked against.
 
-use super::triangle::WatertightRay;
+use super::triangle::{Tri4, WatertightRay};
 use super::{Accelerator, Hit, TriangleSoup};
 use crate::math::{Ray, Vec3};
 
-/// Brute force over a copy of the triangles.
+/// Brute force over a copy of the triangles, in blocks of four.
 pub struct Naive {
-    tris: Vec<[Vec3; 3]>,
+    blocks: Vec<Tri4>,
+    /// Triangles in the last block (1 to 4).
+    last: usize,
 }
 
 impl Naive {
     /// Copy the triangles of `soup`.
     pub fn new(soup: TriangleSoup<'_>) -> Self {
-        let tris = soup
+        let tris: Vec<(u32, [Vec3; 3])> = soup
             .indices
             .iter()
-            .map(|t| t.map(|i| soup.positions[i as usize]))
+            .enumerate()
+            .map(|(i, t)| (i as u32, t.map(|k| soup.positions[k as usize])))
             .collect();
-        Naive { tris }
+        let blocks = tris.chunks(4).map(Tri4::new).collect();
+        let last = tris.len().saturating_sub(1) % 4 + 1;
+        Naive { blocks, last }
+    }
+
+    /// Each block with its lane mask.
+    fn blocks(&self) -> impl Iterator<Item = (&Tri4, u32)> {
+        let n = self.blocks.len();
+        self.blocks.iter().enumerate().map(move |(i, b)| {
+            let count = if i + 1 == n { self.last } else { 4 };
+            (b, (1 << count) - 1)
+        })
     }
 }
 
@@ -29,7 +44,7 @@ impl Accelerator for Naive {
     }
 
     fn memory_bytes(&self) -> usize {
-        self.tris.capacity() * std::mem::size_of::<[Vec3; 3]>()
+        self.blocks.capacity() * std::mem::size_of::<Tri4>()
     }
 
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
@@ -39,15 +54,9 @@ impl Accelerator for Naive {
         let wr = WatertightRay::new(ray);
         let mut best: Option<Hit> = None;
         let mut t_max = ray.t_max;
-        for (i, t) in self.tris.iter().enumerate() {
-            if let Some(mut h) = wr.intersect(t[0], t[1], t[2], t_max) {
-                // strictly closer only: ties keep the lowest index
-                if best.is_none_or(|b| h.t < b.t) {
-                    h.prim = i as u32;
-                    t_max = h.t;
-                    best = Some(h);
-                }
-            }
+        for (block, lanes) in self.blocks() {
+            wr.intersect4(block, lanes, t_max)
+                .fold_closest(block, &mut best, &mut t_max);
         }
         best
     }
@@ -57,8 +66,7 @@ impl Accelerator for Naive {
             return false;
         }
         let wr = WatertightRay::new(ray);
-        self.tris
-            .iter()
-            .any(|t| wr.intersect(t[0], t[1], t[2], ray.t_max).is_some())
+        self.blocks()
+            .any(|(block, lanes)| wr.intersect4(block, lanes, ray.t_max).mask != 0)
     }
 }

@@ -10,6 +10,7 @@
 
 use super::Hit;
 use crate::math::{Ray, Vec3, gamma};
+use glam::Vec4;
 
 /// A bound on how far two correct `f32` ray/triangle tests (this one, or
 /// Embree's) may place the hit along the ray: `gamma(16) * R / |cos|`, where
@@ -96,55 +97,82 @@ impl WatertightRay {
     }
 
     /// Intersect triangle `(p0, p1, p2)` with `0 < t <= t_max`. The returned
-    /// hit has `prim = 0`; the caller sets it.
+    /// hit has `prim = 0`; the caller sets it. This is [`Self::intersect4`]
+    /// on a block holding the one triangle, so it answers bit for bit alike.
     #[inline]
     pub fn intersect(&self, p0: Vec3, p1: Vec3, p2: Vec3, t_max: f32) -> Option<Hit> {
+        let mut block = Tri4::default();
+        block.set(0, [p0, p1, p2], 0);
+        self.intersect4(&block, 1, t_max).hit(0)
+    }
+
+    /// Intersect the triangles of `block` in the lanes set in `lanes` with
+    /// `0 < t <= t_max`, four at a time. Every lane's answer is the one the
+    /// routine gives that triangle alone: the same `f32` operations in the
+    /// same order, lane by lane (vector instructions are IEEE-exact per
+    /// lane, and nothing is contracted into fused multiply-adds).
+    #[inline]
+    pub fn intersect4(&self, block: &Tri4, lanes: u32, t_max: f32) -> Hits4 {
         let (kx, ky, kz) = (self.kx, self.ky, self.kz);
-        // Arrays indexed at run time compile to indexed loads; indexing a
-        // `Vec3` would be a chain of branches per component. Same values.
-        let a = (p0 - self.o).to_array();
-        let b = (p1 - self.o).to_array();
-        let c = (p2 - self.o).to_array();
-        let ax = a[kx] - self.sx * a[kz];
-        let ay = a[ky] - self.sy * a[kz];
-        let bx = b[kx] - self.sx * b[kz];
-        let by = b[ky] - self.sy * b[kz];
-        let cx = c[kx] - self.sx * c[kz];
-        let cy = c[ky] - self.sy * c[kz];
+        let o = self.o.to_array();
+        let (sx, sy, sz) = (
+            Vec4::splat(self.sx),
+            Vec4::splat(self.sy),
+            Vec4::splat(self.sz),
+        );
+        // corner coordinates relative to the origin, in the ray's permuted
+        // axes: `rel(c, k)` is `p_c[k] - o[k]` for the four triangles
+        let rel = |c: usize, k: usize| Vec4::from(block.p[c][k]) - Vec4::splat(o[k]);
+        let (a, b, c) = (
+            (rel(0, kx), rel(0, ky), rel(0, kz)),
+            (rel(1, kx), rel(1, ky), rel(1, kz)),
+            (rel(2, kx), rel(2, ky), rel(2, kz)),
+        );
+        // shear so that the ray points down +z
+        let ax = a.0 - sx * a.2;
+        let ay = a.1 - sy * a.2;
+        let bx = b.0 - sx * b.2;
+        let by = b.1 - sy * b.2;
+        let cx = c.0 - sx * c.2;
+        let cy = c.1 - sy * c.2;
         let mut u = cx * by - cy * bx;
         let mut v = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
-        // `|` rather than `||`: one branch instead of three (same result)
-        if (u == 0.0) | (v == 0.0) | (w == 0.0) {
+        let zero = Vec4::ZERO;
+        let redo = (u.cmpeq(zero) | v.cmpeq(zero) | w.cmpeq(zero)).bitmask() & lanes;
+        if redo != 0 {
+            // an edge function is exactly zero: recompute that triangle's
+            // three in f64, as Woop et al. recommend (one rounding each)
             let f =
                 |p: f32, q: f32, r: f32, s: f32| (p as f64 * q as f64 - r as f64 * s as f64) as f32;
-            u = f(cx, by, cy, bx);
-            v = f(ax, cy, ay, cx);
-            w = f(bx, ay, by, ax);
+            let [axs, ays, bxs, bys, cxs, cys] = [ax, ay, bx, by, cx, cy].map(|x| x.to_array());
+            let (mut us, mut vs, mut ws) = (u.to_array(), v.to_array(), w.to_array());
+            for l in (0..4).filter(|l| redo >> l & 1 != 0) {
+                us[l] = f(cxs[l], bys[l], cys[l], bxs[l]);
+                vs[l] = f(axs[l], cys[l], ays[l], cxs[l]);
+                ws[l] = f(bxs[l], ays[l], bys[l], axs[l]);
+            }
+            (u, v, w) = (Vec4::from(us), Vec4::from(vs), Vec4::from(ws));
         }
-        if ((u < 0.0) | (v < 0.0) | (w < 0.0)) & ((u > 0.0) | (v > 0.0) | (w > 0.0)) {
-            return None;
-        }
+        // inside: all three edge functions of one sign (zeros allowed)
+        let any_neg = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
+        let any_pos = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
         let det = u + v + w;
-        if det == 0.0 || det.is_nan() {
-            return None;
-        }
-        let az = self.sz * a[kz];
-        let bz = self.sz * b[kz];
-        let cz = self.sz * c[kz];
+        // det != 0 and not NaN: exactly degenerate triangles are never hit
+        let mut keep = !(any_neg & any_pos) & (det.cmplt(zero) | det.cmpgt(zero));
+        let az = sz * a.2;
+        let bz = sz * b.2;
+        let cz = sz * c.2;
         let t_scaled = u * az + v * bz + w * cz;
         // t = t_scaled / det must be positive: same signs. The range check
         // against t_max happens after the division, on t itself, so the
         // answer for a triangle never depends on how t_max was reached (the
         // BVH and the naive backend pass different t_max sequences).
-        if (det > 0.0 && t_scaled <= 0.0) || (det < 0.0 && t_scaled >= 0.0) {
-            return None;
-        }
-        let inv = 1.0 / det;
+        keep &=
+            !((det.cmpgt(zero) & t_scaled.cmple(zero)) | (det.cmplt(zero) & t_scaled.cmpge(zero)));
+        let inv = Vec4::ONE / det;
         let t = t_scaled * inv;
-        if !(t > 0.0 && t <= t_max) {
-            return None;
-        }
+        keep &= t.cmpgt(zero) & t.cmple(Vec4::splat(t_max));
         // t must be conservatively greater than zero: reject hits within the
         // rounding-error bound of t (pbrt-v4 section 6.8.4, "Bounding the
         // triangle t"), so a ray starting on or just off a triangle never
@@ -152,22 +180,114 @@ impl WatertightRay {
         let max_zt = az.abs().max(bz.abs()).max(cz.abs());
         let max_xt = ax.abs().max(bx.abs()).max(cx.abs());
         let max_yt = ay.abs().max(by.abs()).max(cy.abs());
-        let delta_z = gamma(3) * max_zt;
-        let delta_x = gamma(5) * (max_xt + max_zt);
-        let delta_y = gamma(5) * (max_yt + max_zt);
-        let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+        let g = |n: i32| Vec4::splat(gamma(n));
+        let delta_z = g(3) * max_zt;
+        let delta_x = g(5) * (max_xt + max_zt);
+        let delta_y = g(5) * (max_yt + max_zt);
+        let delta_e =
+            Vec4::splat(2.0) * (g(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
         let max_e = u.abs().max(v.abs()).max(w.abs());
-        let delta_t =
-            3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv.abs();
-        if t <= delta_t {
-            return None;
+        let delta_t = Vec4::splat(3.0)
+            * (g(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
+            * inv.abs();
+        keep &= t.cmpgt(delta_t);
+        Hits4 {
+            mask: keep.bitmask() & lanes,
+            t: t.to_array(),
+            u: (v * inv).to_array(),
+            v: (w * inv).to_array(),
         }
-        Some(Hit {
-            t,
+    }
+}
+
+/// Four triangles stored coordinate by coordinate (`p[corner][axis][lane]`),
+/// with their original indices: the unit [`WatertightRay::intersect4`]
+/// tests at once. Unused lanes repeat lane 0 and are masked out by the
+/// caller's lane mask.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[repr(C, align(16))]
+pub struct Tri4 {
+    /// Corner coordinates: `p[corner][axis][lane]`.
+    pub p: [[[f32; 4]; 3]; 3],
+    /// Original triangle index of each lane.
+    pub ids: [u32; 4],
+}
+
+impl Tri4 {
+    /// A block of up to four triangles `(id, corners)`; unused lanes repeat
+    /// the first triangle. Panics on an empty or too long slice.
+    pub fn new(tris: &[(u32, [Vec3; 3])]) -> Tri4 {
+        assert!(
+            (1..=4).contains(&tris.len()),
+            "a block holds 1 to 4 triangles"
+        );
+        let mut b = Tri4::default();
+        for l in 0..4 {
+            let (id, p) = tris[if l < tris.len() { l } else { 0 }];
+            b.set(l, p, id);
+        }
+        b
+    }
+
+    /// Put triangle `id` with corners `p` in lane `l`.
+    #[inline]
+    pub fn set(&mut self, l: usize, p: [Vec3; 3], id: u32) {
+        for (c, q) in p.iter().enumerate() {
+            for k in 0..3 {
+                self.p[c][k][l] = q[k];
+            }
+        }
+        self.ids[l] = id;
+    }
+}
+
+/// The answers of [`WatertightRay::intersect4`]: lane `l` hit when bit `l`
+/// of `mask` is set, at `t[l]` with barycentrics `(u[l], v[l])`.
+#[derive(Debug, Clone, Copy)]
+pub struct Hits4 {
+    /// Lanes that hit.
+    pub mask: u32,
+    /// Distances.
+    pub t: [f32; 4],
+    /// Barycentric of the second corner.
+    pub u: [f32; 4],
+    /// Barycentric of the third corner.
+    pub v: [f32; 4],
+}
+
+impl Hits4 {
+    /// Lane `l` as a hit (with `prim = 0`), if it hit.
+    #[inline]
+    pub fn hit(&self, l: usize) -> Option<Hit> {
+        (self.mask >> l & 1 != 0).then(|| Hit {
+            t: self.t[l],
             prim: 0,
-            u: v * inv,
-            v: w * inv,
+            u: self.u[l],
+            v: self.v[l],
         })
+    }
+
+    /// Fold these hits of `block` into the closest hit so far, as if its
+    /// triangles were tested one by one in lane order: a hit replaces `best`
+    /// if it is closer than `t_max`, or at `t_max` with a lower original
+    /// index (the tie rule of every backend). `t_max` follows `best`.
+    #[inline]
+    pub fn fold_closest(&self, block: &Tri4, best: &mut Option<Hit>, t_max: &mut f32) {
+        let mut m = self.mask;
+        while m != 0 {
+            let l = m.trailing_zeros() as usize;
+            m &= m - 1;
+            let (t, id) = (self.t[l], block.ids[l]);
+            if t < *t_max || (t == *t_max && best.is_none_or(|b| id < b.prim)) {
+                *t_max = t;
+                *best = Some(Hit {
+                    t,
+                    prim: id,
+                    u: self.u[l],
+                    v: self.v[l],
+                });
+            }
+        }
     }
 }
 
@@ -205,6 +325,83 @@ mod tests {
             r.intersect(Vec3::ZERO, Vec3::X, Vec3::Y, f32::INFINITY)
                 .is_none()
         );
+    }
+
+    /// Each lane of a block answers as its triangle does alone, whatever
+    /// its neighbours: degenerate ones, ones that need the f64 edge
+    /// functions (rays at vertices and edges), hits and misses mixed.
+    #[test]
+    fn lanes_answer_independently() {
+        let mut s = crate::sampler::Sampler::new(5, 0, 0);
+        let mut r =
+            |scale: f32| Vec3::new(s.next_1d() - 0.5, s.next_1d() - 0.5, s.next_1d() - 0.5) * scale;
+        let mut hits = 0;
+        for i in 0..20_000usize {
+            let scale = 10f32.powi(i as i32 % 9 - 4);
+            let base = r(scale);
+            let tris: Vec<(u32, [Vec3; 3])> = (0..4)
+                .map(|k| {
+                    let mut p = [base + r(scale), base + r(scale), base + r(scale)];
+                    match (i + k) % 5 {
+                        0 => p[2] = p[1],                       // repeated vertex
+                        1 => p[2] = p[0] + 0.5 * (p[1] - p[0]), // collinear
+                        _ => {}
+                    }
+                    (k as u32, p)
+                })
+                .collect();
+            // aimed at a vertex, an edge midpoint or inside of one of them
+            let p = tris[i % 4].1;
+            let target = match i % 3 {
+                0 => p[0],
+                1 => 0.5 * (p[0] + p[1]),
+                _ => (p[0] + p[1] + p[2]) / 3.0,
+            };
+            let o = target + r(3.0 * scale);
+            let Some(d) = (target - o).try_normalize() else {
+                continue;
+            };
+            let wr = WatertightRay::new(&Ray::new(o, d));
+            let lanes = if i % 7 == 0 { 0b0111 } else { 0b1111 };
+            let block = Tri4::new(&tris);
+            let all = wr.intersect4(&block, lanes, f32::INFINITY);
+            for (l, (_, p)) in tris.iter().enumerate() {
+                let alone = wr.intersect4(&Tri4::new(&[(0, *p)]), 1, f32::INFINITY);
+                let want = if lanes >> l & 1 != 0 {
+                    alone.hit(0)
+                } else {
+                    None
+                };
+                let got = all.hit(l);
+                assert_eq!(
+                    got.map(|h| (h.t.to_bits(), h.u.to_bits(), h.v.to_bits())),
+                    want.map(|h| (h.t.to_bits(), h.u.to_bits(), h.v.to_bits())),
+                    "lane {l} of block {i}"
+                );
+                hits += got.is_some() as usize;
+            }
+        }
+        assert!(hits > 10_000, "too few hits ({hits}) to mean anything");
+    }
+
+    #[test]
+    fn fold_keeps_the_lowest_index_on_ties() {
+        let r = ray(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z);
+        let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let block = Tri4::new(&[(9, tri), (3, tri), (5, tri)]);
+        let hits = r.intersect4(&block, 0b111, f32::INFINITY);
+        assert_eq!(hits.mask, 0b111);
+        let (mut best, mut t_max) = (None, f32::INFINITY);
+        hits.fold_closest(&block, &mut best, &mut t_max);
+        assert_eq!(best.map(|h| h.prim), Some(3));
+        // an earlier block's hit at the same t with a lower index stays
+        let mut best = Some(Hit {
+            prim: 1,
+            ..best.unwrap()
+        });
+        let mut t_max = best.unwrap().t;
+        hits.fold_closest(&block, &mut best, &mut t_max);
+        assert_eq!(best.map(|h| h.prim), Some(1));
     }
 
     #[test]

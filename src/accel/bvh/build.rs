@@ -35,6 +35,7 @@ use super::BvhQuality;
 use super::node::{Aabb, ChildRef, LEAF_MAX, LEVELS, Node4, WIDTH};
 use glam::Vec3A;
 use rayon::prelude::*;
+use std::ops::Range;
 
 /// Deepest binary level of a leaf (the root is level 0).
 pub const MAX_DEPTH: usize = 42;
@@ -589,33 +590,53 @@ fn count_inner(built: &Built) -> usize {
     }
 }
 
-fn flatten(built: &Built, nodes: &mut Vec<Node4>, stats: &mut TreeStats, depth: usize) -> ChildRef {
+/// Where [`flatten`] puts nodes and leaves.
+struct Flat {
+    nodes: Vec<Node4>,
+    /// Each leaf's range of `prims`, in depth-first order: leaf `i` becomes
+    /// triangle block `i`.
+    leaves: Vec<Range<usize>>,
+    stats: TreeStats,
+}
+
+fn flatten(built: &Built, flat: &mut Flat, depth: usize) -> ChildRef {
     match built {
         Built::Leaf { start, count } => {
-            stats.leaves += 1;
-            ChildRef::leaf(*start, *count)
+            flat.stats.leaves += 1;
+            flat.leaves.push(*start..start + count);
+            ChildRef::leaf(flat.leaves.len() - 1, *count)
         }
         Built::Inner(children) => {
-            stats.nodes += 1;
-            stats.depth = stats.depth.max(depth + 1);
-            let index = nodes.len();
-            nodes.push(Node4::EMPTY);
+            flat.stats.nodes += 1;
+            flat.stats.depth = flat.stats.depth.max(depth + 1);
+            let index = flat.nodes.len();
+            flat.nodes.push(Node4::EMPTY);
             let mut node = Node4::EMPTY;
             for (k, (bounds, child)) in children.iter().enumerate() {
-                node.set(k, bounds, flatten(child, nodes, stats, depth + 1));
+                node.set(k, bounds, flatten(child, flat, depth + 1));
             }
-            nodes[index] = node;
+            flat.nodes[index] = node;
             ChildRef::inner(index)
         }
     }
 }
 
-/// Build over `prims` (reordered into leaf order). Returns the nodes (in
-/// depth-first order), the root reference (a leaf when everything fits in
-/// one) and the tree's shape.
-pub fn build(prims: &mut [PrimRef], quality: BvhQuality) -> (Vec<Node4>, ChildRef, TreeStats) {
-    let mut stats = TreeStats::default();
-    let mut nodes = Vec::new();
+/// A finished tree: nodes in depth-first order, the root reference (a leaf
+/// when everything fits in one), each leaf's range of the reordered
+/// `prims` (leaf `i` is triangle block `i`), and the tree's shape.
+pub struct Tree {
+    /// Nodes, depth-first.
+    pub nodes: Vec<Node4>,
+    /// The root.
+    pub root: ChildRef,
+    /// Ranges of `prims`, one per leaf, in block order.
+    pub leaves: Vec<Range<usize>>,
+    /// Shape.
+    pub stats: TreeStats,
+}
+
+/// Build over `prims` (reordered into leaf order).
+pub fn build(prims: &mut [PrimRef], quality: BvhQuality) -> Tree {
     let root = Item::new(prims, 0, 0, quality);
     let built = match root.plan {
         Plan::Leaf => Built::Leaf {
@@ -624,7 +645,16 @@ pub fn build(prims: &mut [PrimRef], quality: BvhQuality) -> (Vec<Node4>, ChildRe
         },
         _ => build_inner(root, quality),
     };
-    nodes.reserve_exact(count_inner(&built));
-    let root = flatten(&built, &mut nodes, &mut stats, 0);
-    (nodes, root, stats)
+    let mut flat = Flat {
+        nodes: Vec::with_capacity(count_inner(&built)),
+        leaves: Vec::new(),
+        stats: TreeStats::default(),
+    };
+    let root = flatten(&built, &mut flat, 0);
+    Tree {
+        nodes: flat.nodes,
+        root,
+        leaves: flat.leaves,
+        stats: flat.stats,
+    }
 }

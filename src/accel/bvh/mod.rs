@@ -7,8 +7,10 @@
 //!   rayon, leaves of at most [`LEAF_MAX`] triangles, made directly into
 //!   4-wide nodes whose child boxes are stored plane by plane (`[f32; 4]`
 //!   per plane, Embree's BVH4 layout), so one slab test covers four children
-//!   in a few vector operations. Triangles are copied into leaf order; each
-//!   keeps its original index, which is what [`Hit::prim`] reports.
+//!   in a few vector operations. Each leaf's triangles are copied into one
+//!   block of four, coordinate by coordinate ([`Tri4`]), with their original
+//!   indices, which is what [`Hit::prim`] reports; blocks follow the
+//!   depth-first order of the leaves.
 //! - Traversal (`traverse.rs`): closest-hit (children visited near-first)
 //!   and any-hit loops over a fixed stack of [`STACK_SIZE`] entries on the
 //!   call stack, sized by the depth bound the builder guarantees: no
@@ -20,9 +22,11 @@
 //!   boxes are culled against the best `t` by their near plane on the leaf
 //!   test's distance axis, a bound that test's `t` provably respects (the
 //!   ray's entry into a box does not bound it for large slivers).
-//! - Leaves: the naive backend's watertight routine ([`super::triangle`])
-//!   on the same `f32` corners, with the same tie rule (equal `t` goes to the
-//!   lowest original index): for every ray, the closest hit equals the naive
+//! - Leaves: the naive backend's watertight routine
+//!   ([`WatertightRay::intersect4`](super::triangle::WatertightRay::intersect4),
+//!   four triangles at a time, as the naive backend runs it too) on the same
+//!   `f32` corners, with the same tie rule (equal `t` goes to the lowest
+//!   original index): for every ray, the closest hit equals the naive
 //!   backend's bit for bit, and so does occlusion.
 //!
 //! Triangles with a non-finite corner are left out (the watertight test
@@ -38,6 +42,7 @@ mod tests;
 pub use build::TreeStats;
 pub use node::{LEAF_MAX, MAX_TRIANGLES};
 
+use super::triangle::Tri4;
 use super::{Accelerator, Hit, TriangleSoup};
 use crate::error::{Error, Result};
 use crate::math::{Ray, Vec3};
@@ -67,10 +72,8 @@ pub enum BvhQuality {
 pub struct Bvh {
     /// 4-wide nodes, depth-first.
     nodes: Vec<Node4>,
-    /// Triangle corners in leaf order.
-    tris: Vec<[Vec3; 3]>,
-    /// Original index of each triangle in leaf order.
-    ids: Vec<u32>,
+    /// One block of triangles per leaf, in depth-first order.
+    blocks: Vec<Tri4>,
     /// The root: an inner node, or a leaf for tiny scenes; `None` when no
     /// triangle is finite.
     root: Option<ChildRef>,
@@ -114,27 +117,31 @@ impl Bvh {
         if prims.is_empty() {
             return Ok(Bvh {
                 nodes: Vec::new(),
-                tris: Vec::new(),
-                ids: Vec::new(),
+                blocks: Vec::new(),
                 root: None,
                 bounds: Aabb::EMPTY,
                 stats: TreeStats::default(),
             });
         }
         let bounds = prims.iter().fold(Aabb::EMPTY, |b, p| b.union(&p.bounds));
-        let (nodes, root, stats) = build::build(&mut prims, quality);
-        let ids: Vec<u32> = prims.iter().map(|p| p.id).collect();
-        let tris = ids
+        let tree = build::build(&mut prims, quality);
+        let blocks = tree
+            .leaves
             .par_iter()
-            .map(|&i| corners(&soup.indices[i as usize]))
+            .map(|r| {
+                let tris: Vec<(u32, [Vec3; 3])> = prims[r.clone()]
+                    .iter()
+                    .map(|p| (p.id, corners(&soup.indices[p.id as usize])))
+                    .collect();
+                Tri4::new(&tris)
+            })
             .collect();
         Ok(Bvh {
-            nodes,
-            tris,
-            ids,
-            root: Some(root),
+            nodes: tree.nodes,
+            blocks,
+            root: Some(tree.root),
             bounds,
-            stats,
+            stats: tree.stats,
         })
     }
 
@@ -151,8 +158,7 @@ impl Accelerator for Bvh {
 
     fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<Node4>()
-            + self.tris.capacity() * std::mem::size_of::<[Vec3; 3]>()
-            + self.ids.capacity() * std::mem::size_of::<u32>()
+            + self.blocks.capacity() * std::mem::size_of::<Tri4>()
     }
 
     fn intersect(&self, ray: &Ray) -> Option<Hit> {

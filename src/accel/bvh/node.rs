@@ -75,12 +75,12 @@ const LEAF_BIT: u32 = 1 << 31;
 const COUNT_BITS: u32 = 2;
 const _: () = assert!(LEAF_MAX == 1 << COUNT_BITS);
 
-/// Most triangles a BVH can hold: a leaf reference keeps the first
-/// triangle's position in 29 bits.
+/// Most triangles a BVH can hold: a leaf reference keeps its block's index
+/// in 29 bits, and there are never more blocks than triangles.
 pub const MAX_TRIANGLES: usize = 1 << (31 - COUNT_BITS);
 
-/// A child reference: an inner node's index, or (top bit set) a leaf of
-/// `count <= LEAF_MAX` consecutive triangles from `start`.
+/// A child reference: an inner node's index, or (top bit set) a leaf: the
+/// first `count <= LEAF_MAX` lanes of triangle block `block`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ChildRef(pub u32);
 
@@ -92,11 +92,11 @@ impl ChildRef {
         ChildRef(index as u32)
     }
 
-    /// The reference to a leaf of `count` triangles from `start`.
+    /// The reference to a leaf: `count` triangles in block `block`.
     #[inline]
-    pub fn leaf(start: usize, count: usize) -> ChildRef {
-        debug_assert!((1..=LEAF_MAX).contains(&count) && start + count <= MAX_TRIANGLES);
-        ChildRef(LEAF_BIT | (start as u32) << COUNT_BITS | (count as u32 - 1))
+    pub fn leaf(block: usize, count: usize) -> ChildRef {
+        debug_assert!((1..=LEAF_MAX).contains(&count) && block < MAX_TRIANGLES);
+        ChildRef(LEAF_BIT | (block as u32) << COUNT_BITS | (count as u32 - 1))
     }
 
     /// Whether this is a leaf.
@@ -105,11 +105,17 @@ impl ChildRef {
         self.0 & LEAF_BIT != 0
     }
 
-    /// A leaf's triangle range (meaningless for an inner node).
+    /// A leaf's block index (meaningless for an inner node).
     #[inline(always)]
-    pub fn range(self) -> std::ops::Range<usize> {
-        let start = ((self.0 & !LEAF_BIT) >> COUNT_BITS) as usize;
-        start..start + (self.0 & (LEAF_MAX as u32 - 1)) as usize + 1
+    pub fn block(self) -> usize {
+        ((self.0 & !LEAF_BIT) >> COUNT_BITS) as usize
+    }
+
+    /// A leaf's lane mask: one bit per triangle (meaningless for an inner
+    /// node).
+    #[inline(always)]
+    pub fn lanes(self) -> u32 {
+        (2 << (self.0 & (LEAF_MAX as u32 - 1))) - 1
     }
 
     /// An inner node's index (meaningless for a leaf).
@@ -159,11 +165,12 @@ mod tests {
 
     #[test]
     fn child_refs_round_trip() {
-        let r = ChildRef::leaf(MAX_TRIANGLES - LEAF_MAX, LEAF_MAX);
+        let r = ChildRef::leaf(MAX_TRIANGLES - 1, LEAF_MAX);
         assert!(r.is_leaf());
-        assert_eq!(r.range(), MAX_TRIANGLES - LEAF_MAX..MAX_TRIANGLES);
+        assert_eq!((r.block(), r.lanes()), (MAX_TRIANGLES - 1, 0b1111));
         let r = ChildRef::leaf(7, 1);
-        assert_eq!(r.range(), 7..8);
+        assert_eq!((r.block(), r.lanes()), (7, 1));
+        assert_eq!(ChildRef::leaf(0, 3).lanes(), 0b111);
         let r = ChildRef::inner(123_456);
         assert!(!r.is_leaf());
         assert_eq!(r.index(), 123_456);

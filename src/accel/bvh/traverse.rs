@@ -28,9 +28,11 @@
 //!   when the triangle's edge lies on its box's face. The padding costs
 //!   nothing per node: it moves the origin used for near and far planes.
 //!
-//! Leaves use the naive backend's routine ([`super::super::triangle`]) on
-//! the same `f32` corners, and the same tie rule: a hit at the same `t` as
-//! the best so far replaces it only if its original index is lower.
+//! Leaves use the naive backend's routine on the same `f32` corners, four
+//! triangles at a time ([`WatertightRay::intersect4`]), and the same tie
+//! rule ([`Hits4::fold_closest`](crate::accel::triangle::Hits4::fold_closest)):
+//! a hit at the same `t` as the best so far replaces it only if its original
+//! index is lower.
 
 use super::node::{Aabb, ChildRef, Node4, WIDTH};
 use super::{Bvh, STACK_SIZE};
@@ -223,18 +225,9 @@ impl Bvh {
                     continue;
                 }
             } else {
-                let range = cur.range();
-                let ids = &self.ids[range.clone()];
-                for (tri, &id) in self.tris[range].iter().zip(ids) {
-                    if let Some(mut h) = wr.intersect(tri[0], tri[1], tri[2], t_max) {
-                        // h.t <= t_max: closer, or a tie won by the lower index
-                        if h.t < t_max || best.is_none_or(|b| id < b.prim) {
-                            h.prim = id;
-                            t_max = h.t;
-                            best = Some(h);
-                        }
-                    }
-                }
+                let block = &self.blocks[cur.block()];
+                wr.intersect4(block, cur.lanes(), t_max)
+                    .fold_closest(block, &mut best, &mut t_max);
             }
             // pop the next child the ray can still reach before t_max
             loop {
@@ -288,10 +281,12 @@ impl Bvh {
                     continue;
                 }
             } else {
-                for tri in &self.tris[cur.range()] {
-                    if wr.intersect(tri[0], tri[1], tri[2], t_max).is_some() {
-                        return true;
-                    }
+                if wr
+                    .intersect4(&self.blocks[cur.block()], cur.lanes(), t_max)
+                    .mask
+                    != 0
+                {
+                    return true;
                 }
             }
             if sp == 0 {
