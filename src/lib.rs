@@ -16,6 +16,7 @@ pub use error::{Error, Result};
 pub mod bench;
 pub mod bsdf;
 pub mod camera;
+pub mod diff;
 pub mod film;
 pub mod integrator;
 pub mod light;

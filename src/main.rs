@@ -39,6 +39,25 @@ enum Command {
     Bench(BenchArgs),
     /// Trace identical rays through every backend and report disagreements.
     Parity(ParityArgs),
+    /// Compare an image with a reference: RMSE, relative MSE, MAE, max error.
+    Diff(DiffArgs),
+}
+
+#[derive(Args)]
+struct DiffArgs {
+    /// The image to measure (.exr or .pfm).
+    image: PathBuf,
+    /// The reference (.exr or .pfm), same size.
+    reference: PathBuf,
+    /// Write a false-colour map of each pixel's mean absolute error (PNG).
+    #[arg(long, value_name = "FILE")]
+    error_image: Option<PathBuf>,
+    /// Error shown as white in the error image [default: the largest].
+    #[arg(long, value_name = "E")]
+    error_scale: Option<f64>,
+    /// Write the metrics as JSON too.
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -186,6 +205,7 @@ const SUBCOMMANDS: &[&str] = &[
     "render",
     "bench",
     "parity",
+    "diff",
     "help",
     "-h",
     "--help",
@@ -203,6 +223,7 @@ fn main() -> ExitCode {
         Command::Render(args) => run_render(args),
         Command::Bench(args) => run_bench(args),
         Command::Parity(args) => run_parity(args),
+        Command::Diff(args) => run_diff(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -218,6 +239,51 @@ fn write_json(path: &std::path::Path, value: &impl serde::Serialize) -> Result<(
     let text =
         serde_json::to_string_pretty(value).expect("plain numbers and strings serialise") + "\n";
     film::write_file_atomically(path, text.as_bytes())
+}
+
+fn run_diff(args: DiffArgs) -> Result<()> {
+    use embertrace::diff::{Image, compare, write_error_image};
+    if let Some(j) = &args.json {
+        embertrace::report::check_report_path(j)?;
+    }
+    if let Some(p) = &args.error_image {
+        film::check_output_path(p)?;
+    }
+    if let Some(s) = args.error_scale {
+        if !(s > 0.0 && s.is_finite()) {
+            return Err(Error::Settings(format!(
+                "--error-scale must be a positive number, not {s}"
+            )));
+        }
+    }
+    let a = Image::read(&args.image)?;
+    let b = Image::read(&args.reference)?;
+    let stats = compare(&a, &b, &args.image, &args.reference)?;
+    println!(
+        "{} vs {}: {}x{}",
+        args.image.display(),
+        args.reference.display(),
+        a.width,
+        a.height
+    );
+    println!("rmse       {:.6e}", stats.rmse);
+    println!("rel_mse    {:.6e}", stats.rel_mse);
+    println!("mae        {:.6e}", stats.mae);
+    println!(
+        "max_error  {:.6e} at [{}, {}]",
+        stats.max_error, stats.max_error_pixel[0], stats.max_error_pixel[1]
+    );
+    if stats.non_finite > 0 {
+        println!("non_finite {} channel values left out", stats.non_finite);
+    }
+    if let Some(p) = &args.error_image {
+        let top = write_error_image(p, &a, &b, args.error_scale)?;
+        eprintln!("error image: {} (white = {top:.3e})", p.display());
+    }
+    if let Some(j) = &args.json {
+        write_json(j, &stats)?;
+    }
+    Ok(())
 }
 
 /// Triangle count above which `bench` leaves the naive backend out unless named.

@@ -440,3 +440,83 @@ fn parity_finds_no_unexplained_disagreements() {
         assert_eq!(c["image"]["within_noise"], true);
     }
 }
+
+#[test]
+fn diff_reports_metrics_and_refuses_mismatched_images() {
+    let dir = tempfile::tempdir().unwrap();
+    setup(dir.path(), &[("m.obj", GOOD_OBJ.into())]);
+    for (seed, name, res) in [
+        ("1", "a.exr", "8"),
+        ("2", "b.exr", "8"),
+        ("1", "c.pfm", "4"),
+    ] {
+        let out = run(
+            dir.path(),
+            &[
+                "render", "m.obj", "-s", "2", "--seed", seed, "-r", res, "6", "-o", name, "-q",
+            ],
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let text = |o: &std::process::Output| String::from_utf8_lossy(&o.stdout).to_string();
+    // an image against itself: every metric is zero
+    let same = run(dir.path(), &["diff", "a.exr", "a.exr"]);
+    assert!(same.status.success());
+    assert!(
+        text(&same).contains("rmse       0.000000e0"),
+        "{}",
+        text(&same)
+    );
+    // two seeds differ; the JSON holds the printed figures
+    let out = run(
+        dir.path(),
+        &[
+            "diff",
+            "a.exr",
+            "b.exr",
+            "--json",
+            "d.json",
+            "--error-image",
+            "e.png",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let d: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("d.json")).unwrap()).unwrap();
+    let rmse = d["rmse"].as_f64().unwrap();
+    assert!(rmse > 0.0 && d["max_error"].as_f64().unwrap() >= rmse);
+    assert!(
+        text(&out).contains(&format!("rmse       {rmse:.6e}")),
+        "{}",
+        text(&out)
+    );
+    let e = image::open(dir.path().join("e.png")).unwrap();
+    assert_eq!((e.width(), e.height()), (8, 6));
+    // sizes differ, or a PNG is given: one line, non-zero exit, no outputs
+    for args in [
+        &[
+            "diff",
+            "a.exr",
+            "c.pfm",
+            "--error-image",
+            "f.png",
+            "--json",
+            "f.json",
+        ][..],
+        &["diff", "e.png", "a.exr", "--error-image", "f.png"][..],
+    ] {
+        let out = run(dir.path(), args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.lines().count() == 1, "{err}");
+        assert!(err.contains(args[1]), "{err}");
+        assert!(!dir.path().join("f.png").exists() && !dir.path().join("f.json").exists());
+    }
+}
