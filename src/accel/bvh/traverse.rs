@@ -39,6 +39,9 @@ use super::{Bvh, STACK_SIZE};
 use crate::accel::Hit;
 use crate::accel::triangle::WatertightRay;
 use crate::math::{Ray, Vec3, next_float_down, next_float_up};
+use glam::Vec4;
+
+const _: () = assert!(WIDTH == 4, "the slab test is written for 4-wide nodes");
 
 /// `1 + 2 gamma(4)`: the relative enlargement of far distances.
 const WIDEN: f32 = {
@@ -49,17 +52,21 @@ const WIDEN: f32 = {
 /// `gamma(16)`: the box padding's factor on the ray's distance to the scene.
 const PAD_GAMMA: f32 = 16.0 * (f32::EPSILON * 0.5) / (1.0 - 16.0 * (f32::EPSILON * 0.5));
 
-/// A ray prepared for the slab test.
+/// A ray prepared for the slab test, every per-axis value splatted over the
+/// four lanes of a node.
 #[derive(Debug, Clone, Copy)]
 struct SlabRay {
     /// Origin used with the near plane of each axis (padded outwards).
-    o_near: [f32; 3],
+    o_near: [Vec4; 3],
     /// Origin used with the far plane of each axis (padded outwards).
-    o_far: [f32; 3],
+    o_far: [Vec4; 3],
     /// Reciprocal direction.
-    inv: [f32; 3],
-    /// Whether each direction component is negative (`-0` included).
-    neg: [bool; 3],
+    inv: [Vec4; 3],
+    /// Index in [`Node4::planes`] of each axis's near plane (`a` when the
+    /// direction's component is positive, `3 + a` when negative, `-0`
+    /// included), and of its far plane.
+    near: [usize; 3],
+    far: [usize; 3],
     /// The triangle test's distance axis ([`WatertightRay::kz`]).
     kz: usize,
 }
@@ -82,12 +89,14 @@ impl SlabRay {
         let neg = inv.map(|x| x.is_sign_negative());
         // d >= 0: near plane min - (o + pad), far plane max - (o - pad);
         // d < 0: near plane max - (o - pad), far plane min - (o + pad)
-        let pick = |a: usize, near: bool| if neg[a] == near { lo[a] } else { hi[a] };
+        let pick = |a: usize, near: bool| Vec4::splat(if neg[a] == near { lo[a] } else { hi[a] });
+        let plane = |a: usize, near: bool| if neg[a] == near { 3 + a } else { a };
         SlabRay {
             o_near: [pick(0, true), pick(1, true), pick(2, true)],
             o_far: [pick(0, false), pick(1, false), pick(2, false)],
-            inv,
-            neg,
+            inv: inv.map(Vec4::splat),
+            near: [plane(0, true), plane(1, true), plane(2, true)],
+            far: [plane(0, false), plane(1, false), plane(2, false)],
             kz: wr.kz(),
         }
     }
@@ -107,38 +116,21 @@ impl SlabRay {
     /// distance would then skip a hit the naive backend reports.
     #[inline(always)]
     fn test(&self, node: &Node4, t_max: f32) -> ([f32; WIDTH], [f32; WIDTH], u32) {
-        let mut t0 = [0.0f32; WIDTH];
-        let mut t1 = [f32::INFINITY; WIDTH];
-        for a in 0..3 {
-            let (near, far) = self.planes(node, a);
-            for k in 0..WIDTH {
-                let tn = (near[k] - self.o_near[a]) * self.inv[a];
-                let tf = (far[k] - self.o_far[a]) * self.inv[a];
-                // NaN (0 * inf) leaves the bound unchanged
-                t0[k] = if tn > t0[k] { tn } else { t0[k] };
-                t1[k] = if tf < t1[k] { tf } else { t1[k] };
-            }
+        let mut t0 = Vec4::ZERO;
+        let mut t1 = Vec4::INFINITY;
+        let mut tn = [Vec4::ZERO; 3];
+        for (a, tn) in tn.iter_mut().enumerate() {
+            *tn = (Vec4::from(node.planes[self.near[a]]) - self.o_near[a]) * self.inv[a];
+            let tf = (Vec4::from(node.planes[self.far[a]]) - self.o_far[a]) * self.inv[a];
+            // NaN (0 * inf) leaves the bound unchanged: a NaN comparison is
+            // false, so the select keeps the running value
+            t0 = Vec4::select(tn.cmpgt(t0), *tn, t0);
+            t1 = Vec4::select(tf.cmplt(t1), tf, t1);
         }
-        let kz = self.kz;
-        let (near, _) = self.planes(node, kz);
-        let mut key = [0.0f32; WIDTH];
-        let limit = t_max * WIDEN;
-        let mut mask = 0;
-        for k in 0..WIDTH {
-            key[k] = (near[k] - self.o_near[kz]) * self.inv[kz];
-            mask |= (((t0[k] <= t1[k] * WIDEN) & (key[k] <= limit)) as u32) << k;
-        }
-        (t0, key, mask)
-    }
-
-    /// The near and far planes of `axis` for this ray's direction.
-    #[inline(always)]
-    fn planes<'n>(&self, node: &'n Node4, axis: usize) -> (&'n [f32; WIDTH], &'n [f32; WIDTH]) {
-        if self.neg[axis] {
-            (&node.max[axis], &node.min[axis])
-        } else {
-            (&node.min[axis], &node.max[axis])
-        }
+        let key = tn[self.kz];
+        let enter = t0.cmple(t1 * Vec4::splat(WIDEN));
+        let mask = (enter & key.cmple(Vec4::splat(t_max * WIDEN))).bitmask();
+        (t0.to_array(), key.to_array(), mask)
     }
 }
 
