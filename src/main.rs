@@ -12,6 +12,7 @@ use embertrace::parity::{self, ParitySettings};
 use embertrace::raysets::RayKind;
 use embertrace::render::{self, RenderSettings};
 use embertrace::report::RenderReport;
+use embertrace::sampler::SamplerKind;
 use embertrace::scene::{MAX_PIXELS, MAX_RESOLUTION, Scene};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
@@ -140,6 +141,10 @@ struct RenderArgs {
     /// Random seed [scene default, else 0].
     #[arg(long)]
     seed: Option<u64>,
+    /// Sample generator: independent (PCG32) or sobol (padded,
+    /// Owen-scrambled Sobol points).
+    #[arg(long, default_value_t = SamplerKind::Independent)]
+    sampler: SamplerKind,
     /// Ray-query backend: embree or naive [embree when compiled in].
     #[arg(long)]
     accel: Option<Backend>,
@@ -435,6 +440,8 @@ fn run_render(args: RenderArgs) -> Result<()> {
         seed,
         threads: args.threads,
         tile_size: args.tile_size,
+        sampler: args.sampler,
+        total_spp: 0,
     };
     let tiles =
         (w.div_ceil(settings.tile_size.max(1)) * h.div_ceil(settings.tile_size.max(1))) as u64;

@@ -26,6 +26,7 @@ use crate::integrator::{IntegratorSettings, PathTracer};
 use crate::math::{Ray, triangle_normal};
 use crate::raysets::{self, RayKind};
 use crate::render::{RenderSettings, render};
+use crate::sampler::SamplerKind;
 use crate::scene::Scene;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -244,6 +245,8 @@ fn compare_images(
         seed: 1,
         threads: 0,
         tile_size: 16,
+        sampler: SamplerKind::Independent,
+        total_spp: 0,
     };
     // different seeds would make the test about noise; the same seed makes
     // the renders agree except where the backends' answers differ

@@ -52,6 +52,8 @@ pub struct RenderReport {
     pub resolution: [u32; 2],
     /// Seed.
     pub seed: u64,
+    /// Sample generator: "independent" or "sobol".
+    pub sampler: String,
     /// Threads used.
     pub threads: usize,
     /// Seconds spent loading the scene.
@@ -109,6 +111,7 @@ impl RenderReport {
             rr_depth: integrator.rr_depth,
             resolution: settings.resolution,
             seed: settings.seed,
+            sampler: settings.sampler.to_string(),
             threads: out.threads,
             load_seconds,
             accel_build_seconds,
@@ -134,6 +137,7 @@ impl RenderReport {
         vec![
             ("embertrace.spp".into(), self.spp.to_string()),
             ("embertrace.seed".into(), self.seed.to_string()),
+            ("embertrace.sampler".into(), self.sampler.clone()),
             ("embertrace.backend".into(), self.backend.clone()),
             (
                 "embertrace.render_seconds".into(),

@@ -277,6 +277,7 @@ fn classic_command_line_renders() {
         "max_depth",
         "resolution",
         "seed",
+        "sampler",
         "threads",
         "load_seconds",
         "accel_build_seconds",
