@@ -441,7 +441,6 @@ fn run_render(args: RenderArgs) -> Result<()> {
         threads: args.threads,
         tile_size: args.tile_size,
         sampler: args.sampler,
-        total_spp: 0,
     };
     let tiles =
         (w.div_ceil(settings.tile_size.max(1)) * h.div_ceil(settings.tile_size.max(1))) as u64;

@@ -246,7 +246,6 @@ fn compare_images(
         threads: 0,
         tile_size: 16,
         sampler: SamplerKind::Independent,
-        total_spp: 0,
     };
     // different seeds would make the test about noise; the same seed makes
     // the renders agree except where the backends' answers differ

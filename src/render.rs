@@ -34,11 +34,6 @@ pub struct RenderSettings {
     pub tile_size: u32,
     /// Sample generator.
     pub sampler: SamplerKind,
-    /// Samples per pixel the whole render will take, over every pass (the
-    /// Sobol sampler permutes sample indices in blocks of this size, so a
-    /// render in passes draws the same points as one run); 0 means
-    /// `first_sample + spp`.
-    pub total_spp: u32,
 }
 
 /// Samples that were NaN, infinite or negative, and where.
@@ -135,16 +130,12 @@ fn render_tile(
     let mut nonfinite = NonFiniteReport::default();
     let b = tile.bounds();
     let width = settings.resolution[0] as u64;
-    let total = match settings.total_spp {
-        0 => settings.first_sample + settings.spp,
-        n => n,
-    };
     for y in b.y0..b.y0 + b.height {
         for x in b.x0..b.x0 + b.width {
             let pixel = y as u64 * width + x as u64;
             for s in settings.first_sample..settings.first_sample + settings.spp {
                 let mut sampler =
-                    Sampler::with_kind(settings.sampler, settings.seed, pixel, s as u64, total);
+                    Sampler::with_kind(settings.sampler, settings.seed, pixel, s as u64);
                 let jitter = sampler.next_2d();
                 let ray = camera.generate_ray(Vec2::new(x as f32, y as f32) + jitter);
                 let l = tracer.li(&ray, &mut sampler, &mut rays);

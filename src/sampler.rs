@@ -18,10 +18,12 @@
 //!   from (seed, pixel, dimension). The samples of one pixel are then, in
 //!   every dimension pair, a randomised (0, m, 2)-net when their count is a
 //!   power of two `2^m`, and each point is uniformly distributed, so the
-//!   estimator stays unbiased. The index permutation works within blocks of
-//!   `spp` samples (rounded up to a power of two), so a render that stops
-//!   early, or continues past `spp` in further passes, still draws distinct,
-//!   uniformly scrambled points.
+//!   estimator stays unbiased. The index permutation keeps every dyadic
+//!   block `[2^l, 2^(l+1))` of sample indices in place and shuffles within
+//!   it, so the first `2^m` samples of a pixel use exactly Sobol indices
+//!   `0..2^m` in every dimension: the net property holds after every power
+//!   of two, whatever the final count, and a render in passes, or one that
+//!   stops on a time limit, draws the same points as one run.
 //!
 //! Integer requests ([`Sampler::next_u32`]) always come from the PCG stream.
 
@@ -90,11 +92,8 @@ pub struct Sampler {
 struct Sobol {
     seed: u64,
     pixel: u64,
-    /// Block of `block_len` consecutive sample indices this sample is in.
-    block: u64,
-    /// Position within the block, before permutation.
-    within: u32,
-    block_len: u32,
+    /// The sample's index in its pixel (below `2^32`).
+    index: u32,
     dimension: u64,
 }
 
@@ -169,9 +168,15 @@ impl Sobol {
     fn next(&mut self, width: u64) -> (u32, u64) {
         let hash = mix64(self.seed ^ mix64(self.pixel ^ mix64(self.dimension ^ 0x0005_0b01)));
         self.dimension += width;
-        let base = self.block * self.block_len as u64;
-        let index = base + permutation_element(self.within, self.block_len, hash) as u64;
-        (index as u32, hash)
+        let i = self.index;
+        if i < 2 {
+            return (i, hash);
+        }
+        // shuffle within the dyadic block [2^l, 2^(l+1)) holding i
+        let l = 31 - i.leading_zeros();
+        let base = 1u32 << l;
+        let within = permutation_element(i - base, base, mix64(hash ^ l as u64));
+        (base + within, hash)
     }
 }
 
@@ -198,18 +203,14 @@ impl Sampler {
     }
 
     /// The generator `kind` for sample `sample` of pixel `pixel` under
-    /// `seed`, in a render of `spp` samples per pixel (the Sobol sampler
-    /// permutes indices within blocks of `spp` rounded up to a power of two).
-    pub fn with_kind(kind: SamplerKind, seed: u64, pixel: u64, sample: u64, spp: u32) -> Self {
+    /// `seed`. Sample indices of the Sobol sampler wrap at `2^32`.
+    pub fn with_kind(kind: SamplerKind, seed: u64, pixel: u64, sample: u64) -> Self {
         let mut s = Sampler::new(seed, pixel, sample);
         if kind == SamplerKind::Sobol {
-            let block_len = spp.max(1).checked_next_power_of_two().unwrap_or(1 << 31);
             s.sobol = Some(Sobol {
                 seed,
                 pixel,
-                block: sample / block_len as u64,
-                within: (sample % block_len as u64) as u32,
-                block_len,
+                index: sample as u32,
                 dimension: 0,
             });
         }
@@ -332,7 +333,7 @@ mod tests {
             let mut dims: Vec<Vec<Vec2>> = vec![Vec::new(); 6];
             let mut one_d: Vec<Vec<f32>> = vec![Vec::new(); 2];
             for s in 0..spp {
-                let mut smp = Sampler::with_kind(SamplerKind::Sobol, 3, pixel, s as u64, spp);
+                let mut smp = Sampler::with_kind(SamplerKind::Sobol, 3, pixel, s as u64);
                 for d in dims.iter_mut() {
                     d.push(smp.next_2d());
                 }
@@ -367,7 +368,7 @@ mod tests {
             for pixel in 0..2000u64 {
                 let mut sum = 0.0f64;
                 for s in 0..64 {
-                    let mut smp = Sampler::with_kind(kind, 11, pixel, s, 64);
+                    let mut smp = Sampler::with_kind(kind, 11, pixel, s);
                     let _camera = smp.next_2d();
                     let p = smp.next_2d();
                     sum += (p.x * p.y) as f64;
@@ -388,18 +389,20 @@ mod tests {
     fn sobol_points_are_uniform_and_samples_past_spp_differ() {
         let (mut sum, n) = (0.0f64, 50_000u64);
         for s in 0..n {
-            let mut smp = Sampler::with_kind(SamplerKind::Sobol, 5, s / 16, s % 16, 16);
+            let mut smp = Sampler::with_kind(SamplerKind::Sobol, 5, s / 16, s % 16);
             smp.next_2d();
             sum += smp.next_1d() as f64;
         }
         // mean of U(0,1): sigma = sqrt(1/12)/sqrt(n) = 1.29e-3; 5 sigma band
         // (within a pixel the points are stratified, which only shrinks it)
         assert!((sum / n as f64 - 0.5).abs() < 5.0 * 1.29e-3);
-        // a second block of 16 (a later pass) gives new points
-        let first = |s: u64| Sampler::with_kind(SamplerKind::Sobol, 5, 9, s, 16).next_2d();
+        // the next 16 samples (a later pass) give new points, and the first
+        // 32 together are again a net
+        let first = |s: u64| Sampler::with_kind(SamplerKind::Sobol, 5, 9, s).next_2d();
         let a: Vec<Vec2> = (0..16).map(first).collect();
         let b: Vec<Vec2> = (16..32).map(first).collect();
         assert!(a.iter().all(|p| !b.contains(p)));
+        assert!(is_0m2_net(&[a, b].concat()));
     }
 
     #[test]

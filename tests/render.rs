@@ -43,7 +43,6 @@ fn render_box(
         threads,
         tile_size: tile,
         sampler: SamplerKind::Independent,
-        total_spp: 0,
     };
     render(&tracer, &camera, &rs, &|| {}).unwrap()
 }
@@ -295,7 +294,6 @@ fn render_sampler(scene: &Scene, sampler: SamplerKind, spp: u32, threads: usize)
         threads,
         tile_size: 8,
         sampler,
-        total_spp: 0,
     };
     render(&tracer, &camera, &rs, &|| {}).unwrap()
 }
