@@ -266,6 +266,46 @@ impl Film {
         self.non_finite += tile.non_finite;
     }
 
+    /// A tile holding the film's current accumulators for `bounds`, to add
+    /// a further pass's samples to. Put back with [`Film::store_tile`], the
+    /// samples of every pixel are summed in the order they were taken, so a
+    /// render in passes gives the same bits as one run.
+    ///
+    /// # Panics
+    ///
+    /// If `bounds` does not lie inside the film.
+    pub fn tile_state(&self, bounds: TileBounds) -> Tile {
+        let mut tile = Tile::new(bounds);
+        for (row, tile_row) in tile
+            .pixels
+            .chunks_exact_mut(bounds.width.max(1) as usize)
+            .enumerate()
+        {
+            let start = self.index(bounds.x0, bounds.y0 + row as u32);
+            tile_row.copy_from_slice(&self.pixels[start..start + bounds.width as usize]);
+        }
+        tile
+    }
+
+    /// Replace the film's accumulators under `tile` with the tile's (made
+    /// from [`Film::tile_state`]), and add its non-finite count.
+    ///
+    /// # Panics
+    ///
+    /// If the tile does not lie inside the film.
+    pub fn store_tile(&mut self, tile: &Tile) {
+        let b = tile.bounds;
+        for (row, tile_row) in tile
+            .pixels
+            .chunks_exact(b.width.max(1) as usize)
+            .enumerate()
+        {
+            let start = self.index(b.x0, b.y0 + row as u32);
+            self.pixels[start..start + b.width as usize].copy_from_slice(tile_row);
+        }
+        self.non_finite += tile.non_finite;
+    }
+
     /// The film cut into `tile_size` x `tile_size` tiles in row-major order
     /// (left to right, then top to bottom), the last column and row clipped to
     /// the film. A `tile_size` of 0 is taken as 1.
@@ -715,6 +755,22 @@ fn write_exr(path: &Path, film: &Film, metadata: &[(String, String)]) -> Result<
             )),
         })
     })
+}
+
+/// Encode 8-bit RGB pixels (row-major, top row first) as PNG and write them
+/// to `path` atomically.
+pub fn write_png_rgb8(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
+    let mut bytes = Vec::new();
+    image::write_buffer_with_format(
+        &mut std::io::Cursor::new(&mut bytes),
+        rgb,
+        width,
+        height,
+        image::ExtendedColorType::Rgb8,
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| Error::input(path, None, format!("cannot encode PNG: {e}")))?;
+    write_file_atomically(path, &bytes)
 }
 
 /// Reads the R, G, B channels of the first layer of an OpenEXR file as `f32`:

@@ -46,7 +46,8 @@ pub struct NonFiniteReport {
 }
 
 impl NonFiniteReport {
-    fn merge(&mut self, other: &NonFiniteReport) {
+    /// Add `other`'s count and pixels (up to [`NONFINITE_PIXELS_KEPT`]).
+    pub fn merge(&mut self, other: &NonFiniteReport) {
         self.count += other.count;
         for &p in &other.pixels {
             if self.pixels.len() < NONFINITE_PIXELS_KEPT {
@@ -77,6 +78,23 @@ struct TileResult {
     nonfinite: NonFiniteReport,
 }
 
+/// What one pass added besides the samples in the film.
+#[derive(Debug, Clone, Default)]
+pub struct PassOutput {
+    /// Rays traced, by kind.
+    pub rays: RayCounts,
+    /// Rejected samples.
+    pub nonfinite: NonFiniteReport,
+}
+
+/// A pool of `threads` workers (0 = one per core).
+pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::Settings(format!("cannot start {threads} threads: {e}")))
+}
+
 /// Render `settings.spp` samples per pixel into a new film. `on_tile` is called
 /// after each finished tile (for progress bars).
 pub fn render(
@@ -87,43 +105,58 @@ pub fn render(
 ) -> Result<RenderOutput> {
     let [w, h] = settings.resolution;
     let mut film = Film::new(w, h);
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(settings.threads)
-        .build()
-        .map_err(|e| Error::Settings(format!("cannot start {} threads: {e}", settings.threads)))?;
-    let threads = pool.current_num_threads();
+    let pool = thread_pool(settings.threads)?;
     let start = Instant::now();
+    let pass = render_pass(tracer, camera, settings, &mut film, None, &pool, on_tile);
+    Ok(RenderOutput {
+        film,
+        rays: pass.rays,
+        nonfinite: pass.nonfinite,
+        seconds: start.elapsed().as_secs_f64(),
+        threads: pool.current_num_threads(),
+    })
+}
+
+/// Add samples `first_sample .. first_sample + spp` to every pixel of `film`
+/// whose entry in `active` (row-major, one per pixel) is true, or to every
+/// pixel when `active` is `None`. Each pixel's samples are summed in index
+/// order onto what it holds, so passes of `n` and then `m` samples give the
+/// same bits as one pass of `n + m`.
+pub fn render_pass(
+    tracer: &PathTracer<'_>,
+    camera: &Camera,
+    settings: &RenderSettings,
+    film: &mut Film,
+    active: Option<&[bool]>,
+    pool: &rayon::ThreadPool,
+    on_tile: &(dyn Fn() + Sync),
+) -> PassOutput {
     let bounds = film.tiles(settings.tile_size.max(1));
+    let state: &Film = film;
     let results: Vec<TileResult> = pool.install(|| {
         bounds
             .par_iter()
             .map(|b| {
-                let r = render_tile(tracer, camera, settings, Tile::new(*b));
+                let r = render_tile(tracer, camera, settings, active, state.tile_state(*b));
                 on_tile();
                 r
             })
             .collect()
     });
-    let mut rays = RayCounts::default();
-    let mut nonfinite = NonFiniteReport::default();
+    let mut out = PassOutput::default();
     for r in &results {
-        film.merge_tile(&r.tile);
-        rays.add(&r.rays);
-        nonfinite.merge(&r.nonfinite);
+        film.store_tile(&r.tile);
+        out.rays.add(&r.rays);
+        out.nonfinite.merge(&r.nonfinite);
     }
-    Ok(RenderOutput {
-        film,
-        rays,
-        nonfinite,
-        seconds: start.elapsed().as_secs_f64(),
-        threads,
-    })
+    out
 }
 
 fn render_tile(
     tracer: &PathTracer<'_>,
     camera: &Camera,
     settings: &RenderSettings,
+    active: Option<&[bool]>,
     mut tile: Tile,
 ) -> TileResult {
     let mut rays = RayCounts::default();
@@ -133,6 +166,9 @@ fn render_tile(
     for y in b.y0..b.y0 + b.height {
         for x in b.x0..b.x0 + b.width {
             let pixel = y as u64 * width + x as u64;
+            if active.is_some_and(|a| !a[pixel as usize]) {
+                continue;
+            }
             for s in settings.first_sample..settings.first_sample + settings.spp {
                 let mut sampler =
                     Sampler::with_kind(settings.sampler, settings.seed, pixel, s as u64);
