@@ -21,7 +21,7 @@
 //! (by default the largest per-pixel error) is white.
 
 use crate::error::{Error, Result};
-use crate::film::{read_exr, read_pfm, write_file_atomically};
+use crate::film::{read_exr, read_pfm, write_png_rgb8};
 use serde::Serialize;
 use std::path::Path;
 
@@ -175,17 +175,7 @@ pub fn write_error_image(path: &Path, a: &Image, b: &Image, scale: Option<f64>) 
         .iter()
         .flat_map(|&e| ramp(if top > 0.0 { e / top } else { 0.0 }))
         .collect();
-    let mut bytes = Vec::new();
-    image::write_buffer_with_format(
-        &mut std::io::Cursor::new(&mut bytes),
-        &rgb,
-        a.width,
-        a.height,
-        image::ExtendedColorType::Rgb8,
-        image::ImageFormat::Png,
-    )
-    .map_err(|e| Error::input(path, None, format!("cannot encode the error image: {e}")))?;
-    write_file_atomically(path, &bytes)?;
+    write_png_rgb8(path, a.width, a.height, &rgb)?;
     Ok(top)
 }
 

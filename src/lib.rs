@@ -21,6 +21,7 @@ pub mod film;
 pub mod integrator;
 pub mod light;
 pub mod parity;
+pub mod progressive;
 pub mod raysets;
 pub mod render;
 pub mod report;

@@ -5,13 +5,16 @@ use embertrace::accel::bvh::BvhQuality;
 use embertrace::accel::{self, AccelOptions, Backend};
 use embertrace::bench::{self, BenchSettings};
 use embertrace::camera::Camera;
+use embertrace::diff::{Image, compare};
 use embertrace::error::{Error, Result};
 use embertrace::film::{self, OutputOptions};
 use embertrace::integrator::{DirectStrategy, IntegratorSettings, PathTracer, Roulette};
 use embertrace::parity::{self, ParitySettings};
+use embertrace::progressive::{Adaptive, Budget, CONFIDENCE, PassRecord, render_progressive};
 use embertrace::raysets::RayKind;
 use embertrace::render::{self, RenderSettings};
 use embertrace::report::RenderReport;
+use embertrace::report::{ErrorEstimate, ProgressiveReport};
 use embertrace::sampler::SamplerKind;
 use embertrace::scene::{MAX_PIXELS, MAX_RESOLUTION, Scene};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -175,7 +178,32 @@ struct RenderArgs {
     /// Print nothing but errors.
     #[arg(short = 'q', long)]
     quiet: bool,
+    /// Stop after the pass that reaches this many seconds of rendering
+    /// (-s, if given, still caps the samples per pixel).
+    #[arg(long, value_name = "SECONDS")]
+    time_limit: Option<f64>,
+    /// Stop when the estimated relative error of the image (95 %
+    /// confidence) is at most E.
+    #[arg(long, value_name = "E")]
+    target_error: Option<f64>,
+    /// Adaptive sampling: every BATCH samples, stop sampling a pixel whose
+    /// 95 % confidence interval is within TOL of its mean (-s is the most).
+    #[arg(short = 'a', num_args = 2, value_names = ["BATCH", "TOL"])]
+    adaptive: Option<Vec<f64>>,
+    /// Write where the samples went (samples per pixel, false colour) as PNG.
+    #[arg(long, value_name = "FILE")]
+    sample_map: Option<PathBuf>,
+    /// A reference image (.exr or .pfm) for --convergence.
+    #[arg(long, value_name = "FILE")]
+    reference: Option<PathBuf>,
+    /// After every pass, log seconds, spp, rays, RMSE and relative MSE
+    /// against --reference to this CSV file (passes double the spp).
+    #[arg(long, value_name = "FILE")]
+    convergence: Option<PathBuf>,
 }
+
+/// Samples per pixel at most when a time or error budget is given without -s.
+const BUDGET_MAX_SPP: u32 = 1 << 20;
 
 /// How backends are built (shared by every command).
 #[derive(Args)]
@@ -237,6 +265,17 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// The sample map: each pixel's sample count on the false-colour ramp of
+/// `diff`, white at the most any pixel took.
+fn write_sample_map(path: &std::path::Path, w: u32, h: u32, counts: &[u32]) -> Result<()> {
+    let top = counts.iter().copied().max().unwrap_or(0).max(1) as f64;
+    let rgb: Vec<u8> = counts
+        .iter()
+        .flat_map(|&c| embertrace::diff::ramp(c as f64 / top))
+        .collect();
+    film::write_png_rgb8(path, w, h, &rgb)
 }
 
 /// Write `value` as pretty JSON to `path`, atomically.
@@ -385,6 +424,45 @@ fn run_render(args: RenderArgs) -> Result<()> {
             eprintln!("{msg}");
         }
     };
+    let adaptive = match args.adaptive.as_deref() {
+        None => None,
+        Some(&[batch, tolerance]) => {
+            if !(batch >= 2.0 && batch.fract() == 0.0 && batch <= u32::MAX as f64) {
+                return Err(Error::Settings(format!(
+                    "-a {batch} {tolerance}: the batch must be a whole number of samples, at least 2"
+                )));
+            }
+            Some(Adaptive {
+                batch: batch as u32,
+                tolerance,
+            })
+        }
+        Some(_) => unreachable!("clap takes exactly two values for -a"),
+    };
+    let mut budget = Budget {
+        max_spp: 0,
+        time_limit: args.time_limit,
+        target_error: args.target_error,
+        adaptive,
+    };
+    budget.validate()?;
+    if let Some(p) = &args.sample_map {
+        if !budget.is_progressive() {
+            return Err(Error::Settings(
+                "--sample-map needs adaptive sampling (-a) or a budget: with a fixed spp every pixel gets the same".into(),
+            ));
+        }
+        film::check_output_path(p)?;
+    }
+    if let Some(p) = &args.convergence {
+        embertrace::report::check_report_path(p)?;
+    }
+    if args.convergence.is_some() != args.reference.is_some() {
+        return Err(Error::Settings(
+            "--convergence and --reference go together: the log measures error against the reference".into(),
+        ));
+    }
+    let reference = args.reference.as_deref().map(Image::read).transpose()?;
 
     let t0 = Instant::now();
     let scene = Scene::load(&args.scene)?;
@@ -408,7 +486,10 @@ fn run_render(args: RenderArgs) -> Result<()> {
             "resolution {w} x {h} out of range (each side 1..={MAX_RESOLUTION}, at most {MAX_PIXELS} pixels)"
         )));
     }
-    let spp = args.spp.unwrap_or(scene.render.spp);
+    let spp = match args.spp {
+        None if budget.time_limit.is_some() || budget.target_error.is_some() => BUDGET_MAX_SPP,
+        s => s.unwrap_or(scene.render.spp),
+    };
     if spp == 0 {
         return Err(Error::Settings(
             "-s 0: expected at least one sample per pixel".into(),
@@ -461,8 +542,87 @@ fn run_render(args: RenderArgs) -> Result<()> {
         scene.triangle_count(),
         integrator.max_depth
     ));
-    let out = render::render(&tracer, &camera, &settings, &|| bar.inc(1))?;
-    bar.finish_and_clear();
+    budget.max_spp = spp;
+    let progressive = budget.is_progressive() || reference.is_some();
+    let (out, progress) = if progressive {
+        if let Some(r) = &reference {
+            if (r.width, r.height) != (w, h) {
+                return Err(Error::Settings(format!(
+                    "--reference is {}x{} but the render is {w}x{h}",
+                    r.width, r.height
+                )));
+            }
+        }
+        bar.finish_and_clear();
+        let mut log = String::from("pass,seconds,spp,samples,rays,rmse,rel_mse,relative_error\n");
+        let mut on_pass = |p: &PassRecord, film: &film::Film| -> Result<()> {
+            if let Some(r) = &reference {
+                let img = Image {
+                    width: w,
+                    height: h,
+                    rgb: film.to_rgb_f32(),
+                };
+                let d = compare(
+                    &img,
+                    r,
+                    &args.scene,
+                    args.reference
+                        .as_deref()
+                        .unwrap_or_else(|| std::path::Path::new("")),
+                )?;
+                log += &format!(
+                    "{},{:.6},{},{},{},{:.6e},{:.6e},{:.6e}\n",
+                    p.pass,
+                    p.seconds,
+                    p.spp,
+                    p.samples,
+                    p.rays,
+                    d.rmse,
+                    d.rel_mse,
+                    p.relative_error
+                );
+            }
+            if !args.quiet {
+                eprintln!(
+                    "pass {}: {} spp, {:.2} s, relative error {:.4}, {} pixels active",
+                    p.pass, p.spp, p.seconds, p.relative_error, p.active_pixels
+                );
+            }
+            Ok(())
+        };
+        let po = render_progressive(&tracer, &camera, &settings, &budget, &mut on_pass)?;
+        if let Some(path) = &args.convergence {
+            film::write_file_atomically(path, log.as_bytes())?;
+        }
+        if let Some(path) = &args.sample_map {
+            write_sample_map(path, w, h, &po.pixel_samples)?;
+        }
+        let last = po.passes.last().copied();
+        let info = ProgressiveReport {
+            stop: po.stop,
+            spp_reached: po.pixel_samples.iter().copied().max().unwrap_or(0),
+            samples: last.map_or(0, |p| p.samples),
+            passes: po.passes.len() as u32,
+            time_limit: budget.time_limit,
+            target_error: budget.target_error,
+            relative_error: ErrorEstimate {
+                estimate: last.map_or(f64::INFINITY, |p| p.relative_error),
+                confidence: CONFIDENCE,
+            },
+        };
+        let out = render::RenderOutput {
+            film: po.film,
+            rays: po.rays,
+            nonfinite: po.nonfinite,
+            seconds: po.seconds,
+            threads: po.threads,
+        };
+        (out, Some(info))
+    } else {
+        let out = render::render(&tracer, &camera, &settings, &|| bar.inc(1))?;
+        bar.finish_and_clear();
+        (out, None)
+    };
 
     let report = RenderReport::new(
         &args.scene,
@@ -474,6 +634,21 @@ fn run_render(args: RenderArgs) -> Result<()> {
         &out,
         &output,
     );
+    let mut report = report;
+    if let Some(p) = progress {
+        report.spp = p.spp_reached;
+        if !args.quiet {
+            eprintln!(
+                "stopped ({:?}) at {} spp after {} passes; relative error {:.4} at {:.0} % confidence",
+                p.stop,
+                p.spp_reached,
+                p.passes,
+                p.relative_error.estimate,
+                p.relative_error.confidence * 100.0
+            );
+        }
+        report.progressive = Some(p);
+    }
     if out.nonfinite.count > 0 {
         say(&format!(
             "warning: {} NaN, infinite or negative samples left out (first at pixel {:?})",

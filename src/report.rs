@@ -74,6 +74,40 @@ pub struct RenderReport {
     pub nonfinite: NonFinitePixels,
     /// Mean linear RGB over the image.
     pub mean_rgb: [f64; 3],
+    /// Passes, budgets and the error estimate of a progressive render
+    /// (absent for a fixed-spp render).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub progressive: Option<ProgressiveReport>,
+}
+
+/// What a progressive render (`--time-limit`, `--target-error`, `-a`,
+/// `--convergence`) reached.
+#[derive(Debug, Clone, Serialize)]
+pub struct ProgressiveReport {
+    /// What ended it: "spp", "time_limit", "target_error" or "converged".
+    pub stop: crate::progressive::StopReason,
+    /// Samples per pixel reached (the most any pixel took).
+    pub spp_reached: u32,
+    /// Samples over the whole image.
+    pub samples: u64,
+    /// Passes rendered.
+    pub passes: u32,
+    /// The time limit asked for, seconds.
+    pub time_limit: Option<f64>,
+    /// The target error asked for.
+    pub target_error: Option<f64>,
+    /// The estimated relative error of the image at the end.
+    pub relative_error: ErrorEstimate,
+}
+
+/// An error estimate and its confidence level.
+#[derive(Debug, Clone, Serialize)]
+pub struct ErrorEstimate {
+    /// Half-width of the confidence interval of the image's RMS error,
+    /// relative to its RMS value ([`crate::progressive::relative_error`]).
+    pub estimate: f64,
+    /// Confidence level of the interval.
+    pub confidence: f64,
 }
 
 impl RenderReport {
@@ -129,6 +163,7 @@ impl RenderReport {
                 first_pixels: out.nonfinite.pixels.clone(),
             },
             mean_rgb: out.film.mean_rgb(),
+            progressive: None,
         }
     }
 

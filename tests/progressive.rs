@@ -1,0 +1,291 @@
+//! Progressive rendering on the bundled Cornell box: passes give the bits of
+//! one run, the time limit and the target error are honoured, adaptive
+//! sampling sends samples where the variance is, and the CLI's convergence
+//! log and sample map are produced and consistent.
+
+use embertrace::accel::{self, AccelOptions, Backend};
+use embertrace::camera::Camera;
+use embertrace::film::Film;
+use embertrace::integrator::{IntegratorSettings, PathTracer};
+use embertrace::progressive::{
+    Adaptive, Budget, ProgressiveOutput, StopReason, relative_error, render_progressive,
+};
+use embertrace::render::{RenderSettings, render};
+use embertrace::sampler::SamplerKind;
+use embertrace::scene::Scene;
+use std::path::Path;
+use std::process::Command;
+
+fn cornell() -> Scene {
+    Scene::load(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/cornell-box.toml"
+    )))
+    .unwrap()
+}
+
+fn settings(res: u32, spp: u32, seed: u64, sampler: SamplerKind) -> RenderSettings {
+    RenderSettings {
+        resolution: [res, res],
+        spp,
+        first_sample: 0,
+        seed,
+        threads: 0,
+        tile_size: 8,
+        sampler,
+    }
+}
+
+fn progressive(scene: &Scene, rs: &RenderSettings, budget: Budget) -> ProgressiveOutput {
+    let acc = accel::build(
+        Backend::default_backend(),
+        scene.soup(),
+        AccelOptions::default(),
+    )
+    .unwrap();
+    let tracer = PathTracer::new(scene, acc.as_ref(), IntegratorSettings::default());
+    let camera = Camera::new(&scene.camera, rs.resolution[0], rs.resolution[1]);
+    render_progressive(&tracer, &camera, rs, &budget, &mut |_, _| Ok(())).unwrap()
+}
+
+fn one_run(scene: &Scene, rs: &RenderSettings) -> Film {
+    let acc = accel::build(
+        Backend::default_backend(),
+        scene.soup(),
+        AccelOptions::default(),
+    )
+    .unwrap();
+    let tracer = PathTracer::new(scene, acc.as_ref(), IntegratorSettings::default());
+    let camera = Camera::new(&scene.camera, rs.resolution[0], rs.resolution[1]);
+    render(&tracer, &camera, rs, &|| {}).unwrap().film
+}
+
+/// The root mean square of an image's values.
+fn rms(v: &[f32]) -> f64 {
+    (v.iter().map(|&x| (x as f64).powi(2)).sum::<f64>() / v.len() as f64).sqrt()
+}
+
+#[test]
+fn passes_give_the_bits_of_one_run() {
+    let scene = cornell();
+    for sampler in [SamplerKind::Independent, SamplerKind::Sobol] {
+        // a log of passes doubles: 1, 2, 4, 8 and then the 5 left = 13 spp
+        let rs = settings(24, 13, 3, sampler);
+        let budget = Budget {
+            max_spp: 13,
+            time_limit: Some(1e9),
+            ..Budget::default()
+        };
+        let p = progressive(&scene, &rs, budget);
+        let spp: Vec<u32> = p.passes.iter().map(|r| r.spp).collect();
+        assert_eq!(spp, [1, 2, 4, 8, 13], "{sampler}");
+        assert_eq!(p.stop, StopReason::Spp);
+        let a = p.film.to_rgb_f32();
+        let b = one_run(&scene, &rs).to_rgb_f32();
+        assert!(
+            a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
+            "{sampler}: passes differ from one run"
+        );
+        assert_eq!(p.nonfinite.count, 0);
+    }
+}
+
+#[test]
+fn time_limit_stops_after_the_pass_that_reaches_it() {
+    let scene = cornell();
+    let limit = 0.5;
+    let p = progressive(
+        &scene,
+        &settings(64, 1 << 20, 1, SamplerKind::Independent),
+        Budget {
+            max_spp: 1 << 20,
+            time_limit: Some(limit),
+            ..Budget::default()
+        },
+    );
+    assert_eq!(p.stop, StopReason::TimeLimit);
+    let before_last = p.passes[p.passes.len() - 2].seconds;
+    assert!(before_last < limit && p.seconds >= limit, "{:?}", p.passes);
+    // Passes are sized to end at the limit (5 % on an idle machine, see the
+    // issue's figures); the test allows 30 % because CI machines are shared
+    // and a pass's time is predicted from the ones before it.
+    assert!(
+        p.seconds <= 1.3 * limit,
+        "rendered {} s for a {limit} s limit",
+        p.seconds
+    );
+}
+
+#[test]
+fn target_error_is_met_when_reported() {
+    let scene = cornell();
+    let target = 0.1;
+    let rs = settings(32, 1 << 20, 1, SamplerKind::Independent);
+    let p = progressive(
+        &scene,
+        &rs,
+        Budget {
+            max_spp: 1 << 20,
+            target_error: Some(target),
+            ..Budget::default()
+        },
+    );
+    assert_eq!(p.stop, StopReason::TargetError);
+    let estimate = p.passes.last().unwrap().relative_error;
+    assert!(estimate <= target && estimate == relative_error(&p.film));
+    // The actual relative RMS error against a reference of 16 times the
+    // samples (other seed): the estimate is a 95 % bound on it. The
+    // reference's own error adds about 1/4 of the image's in quadrature.
+    let spp = p.passes.last().unwrap().spp;
+    let reference = one_run(
+        &scene,
+        &settings(32, 16 * spp, 99, SamplerKind::Independent),
+    );
+    let (a, r) = (p.film.to_rgb_f32(), reference.to_rgb_f32());
+    let diff: Vec<f32> = a.iter().zip(&r).map(|(x, y)| x - y).collect();
+    let actual = rms(&diff) / rms(&r);
+    assert!(
+        actual <= target,
+        "actual relative error {actual} above the reported {estimate} (target {target}) at {spp} spp"
+    );
+}
+
+#[test]
+fn adaptive_sampling_spends_samples_where_variance_is_high() {
+    let scene = cornell();
+    let rs = settings(32, 512, 1, SamplerKind::Independent);
+    let p = progressive(
+        &scene,
+        &rs,
+        Budget {
+            max_spp: 512,
+            adaptive: Some(Adaptive {
+                batch: 16,
+                tolerance: 0.1,
+            }),
+            ..Budget::default()
+        },
+    );
+    let counts = &p.pixel_samples;
+    assert!(counts.iter().all(|&c| (16..=512).contains(&c) && c % 16 == 0));
+    assert!(counts.contains(&16) && counts.iter().any(|&c| c > 64));
+    // rank pixels by relative noise measured in a separate uniform render
+    let uniform = one_run(&scene, &settings(32, 64, 7, SamplerKind::Independent));
+    let mut noise: Vec<(f64, u32)> = (0..32u32 * 32)
+        .map(|i| {
+            let px = uniform.pixel(i % 32, i / 32);
+            let m: f64 = px.mean_f64().iter().sum();
+            let v: f64 = px.variance_of_mean_f64().iter().sum();
+            (v.sqrt() / m.max(1e-6), counts[i as usize])
+        })
+        .collect();
+    noise.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let tenth = noise.len() / 10;
+    let mean = |s: &[(f64, u32)]| s.iter().map(|x| x.1 as f64).sum::<f64>() / s.len() as f64;
+    let (quiet, noisy) = (mean(&noise[..tenth]), mean(&noise[noise.len() - tenth..]));
+    assert!(
+        noisy > 3.0 * quiet,
+        "noisiest tenth got {noisy} spp on average, quietest {quiet}"
+    );
+}
+
+#[test]
+fn cli_writes_a_consistent_convergence_log_and_sample_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.toml");
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_embertrace"))
+            .current_dir(dir.path())
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let ok = |o: std::process::Output| {
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    ok(run(&[
+        "render", scene, "-r", "16", "16", "-s", "64", "--seed", "9", "-o", "ref.exr", "-q",
+    ]));
+    ok(run(&[
+        "render",
+        scene,
+        "-r",
+        "16",
+        "16",
+        "-s",
+        "16",
+        "--reference",
+        "ref.exr",
+        "--convergence",
+        "conv.csv",
+        "-o",
+        "out.exr",
+        "--report",
+        "r.json",
+        "-q",
+    ]));
+    let csv = std::fs::read_to_string(dir.path().join("conv.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next(),
+        Some("pass,seconds,spp,samples,rays,rmse,rel_mse,relative_error")
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    let spp: Vec<f64> = rows.iter().map(|r| r[2]).collect();
+    assert_eq!(spp, [1.0, 2.0, 4.0, 8.0, 16.0]);
+    for w in rows.windows(2) {
+        assert!(
+            w[1][1] >= w[0][1] && w[1][4] > w[0][4],
+            "time and rays grow: {w:?}"
+        );
+    }
+    // the last row is the written image against the reference
+    let diff = run(&["diff", "out.exr", "ref.exr"]);
+    let text = String::from_utf8_lossy(&diff.stdout).to_string();
+    let last = rows.last().unwrap();
+    assert!(
+        text.contains(&format!("rmse       {:.6e}", last[5])),
+        "{text} vs {last:?}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("r.json")).unwrap()).unwrap();
+    assert_eq!(report["progressive"]["passes"], 5);
+    assert_eq!(report["progressive"]["relative_error"]["confidence"], 0.95);
+
+    ok(run(&[
+        "render",
+        scene,
+        "-r",
+        "16",
+        "16",
+        "-s",
+        "64",
+        "-a",
+        "8",
+        "0.2",
+        "--sample-map",
+        "rate.png",
+        "-o",
+        "a.png",
+        "-q",
+    ]));
+    let map = image::open(dir.path().join("rate.png")).unwrap();
+    assert_eq!((map.width(), map.height()), (16, 16));
+    // bad combinations fail before rendering and leave nothing
+    for args in [
+        &["render", scene, "--convergence", "c.csv", "-o", "b.png"][..],
+        &["render", scene, "-a", "1", "0.1", "-o", "b.png"][..],
+        &["render", scene, "--time-limit", "0", "-o", "b.png"][..],
+        &["render", scene, "--sample-map", "m.png", "-o", "b.png"][..],
+    ] {
+        let o = run(args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && err.lines().count() == 1,
+            "{args:?}: {err}"
+        );
+        assert!(!dir.path().join("b.png").exists() && !dir.path().join("c.csv").exists());
+    }
+}
