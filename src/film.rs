@@ -632,7 +632,7 @@ fn linear_to_srgb(x: f64) -> f64 {
 
 /// Linear radiance to an 8-bit sRGB code value: clamped to `[0, 1]` (NaN
 /// gives 0), encoded, rounded to nearest.
-fn srgb8(linear: f64) -> u8 {
+pub fn srgb8(linear: f64) -> u8 {
     if linear.is_nan() || linear <= 0.0 {
         return 0;
     }
