@@ -45,6 +45,55 @@ enum Command {
     Parity(ParityArgs),
     /// Compare an image with a reference: RMSE, relative MSE, MAE, max error.
     Diff(DiffArgs),
+    /// Render a scene under several settings: error against time, a contact
+    /// sheet and the Pareto front.
+    Study(StudyArgs),
+}
+
+#[derive(Args)]
+struct StudyArgs {
+    /// Scene file: .toml or .obj.
+    scene: PathBuf,
+    /// Output folder (created if missing).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// A setting and its values, NAME=V1,V2,...; repeat to combine. Names:
+    /// spp, max_depth, light_samples, direct, rr, rr_depth, backend, sampler.
+    #[arg(long, value_name = "NAME=V1,V2,...")]
+    vary: Vec<String>,
+    /// Reference image (.exr or .pfm), or `auto` to render (and cache in DIR)
+    /// one at --reference-spp with another seed.
+    #[arg(long, default_value = "auto")]
+    reference: String,
+    /// Samples per pixel of an `auto` reference.
+    #[arg(long, default_value_t = 1024)]
+    reference_spp: u32,
+    /// Samples per pixel [scene default].
+    #[arg(short = 's', long = "spp")]
+    spp: Option<u32>,
+    /// Maximum bounces [scene default].
+    #[arg(short = 'm', long = "max-depth")]
+    max_depth: Option<u32>,
+    /// Light samples per shading point [scene default].
+    #[arg(short = 'l', long = "light-samples")]
+    light_samples: Option<u32>,
+    /// Resolution: width height [scene default].
+    #[arg(short = 'r', long = "resolution", num_args = 2, value_names = ["W", "H"])]
+    resolution: Option<Vec<u32>>,
+    /// Render threads; 0 = all cores.
+    #[arg(short = 't', long = "threads", default_value_t = 0)]
+    threads: usize,
+    /// Random seed [scene default].
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Base backend [embree when compiled in].
+    #[arg(long)]
+    accel: Option<Backend>,
+    #[command(flatten)]
+    build: BuildArgs,
+    /// Print nothing but errors.
+    #[arg(short = 'q', long)]
+    quiet: bool,
 }
 
 #[derive(Args)]
@@ -239,6 +288,7 @@ const SUBCOMMANDS: &[&str] = &[
     "bench",
     "parity",
     "diff",
+    "study",
     "help",
     "-h",
     "--help",
@@ -257,6 +307,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => run_bench(args),
         Command::Parity(args) => run_parity(args),
         Command::Diff(args) => run_diff(args),
+        Command::Study(args) => run_study(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -283,6 +334,85 @@ fn write_json(path: &std::path::Path, value: &impl serde::Serialize) -> Result<(
     let text =
         serde_json::to_string_pretty(value).expect("plain numbers and strings serialise") + "\n";
     film::write_file_atomically(path, text.as_bytes())
+}
+
+fn run_study(args: StudyArgs) -> Result<()> {
+    use embertrace::study::{self, ReferenceChoice, RunSettings, StudyOptions};
+    let vary = args
+        .vary
+        .iter()
+        .map(|v| study::parse_vary(v).map_err(Error::Settings))
+        .collect::<Result<Vec<_>>>()?;
+    if args.out.is_file() {
+        return Err(Error::Settings(format!(
+            "--out {}: is a file, expected a folder",
+            args.out.display()
+        )));
+    }
+    let reference = match args.reference.as_str() {
+        "auto" => ReferenceChoice::Auto,
+        p => ReferenceChoice::File(PathBuf::from(p)),
+    };
+    let scene = Scene::load(&args.scene)?;
+    let resolution = match &args.resolution {
+        Some(r) => [r[0], r[1]],
+        None => scene.resolution,
+    };
+    if resolution[0] == 0
+        || resolution[1] == 0
+        || resolution[0] > MAX_RESOLUTION
+        || resolution[1] > MAX_RESOLUTION
+    {
+        return Err(Error::Settings(format!(
+            "resolution {} x {} out of range (each side 1..={MAX_RESOLUTION})",
+            resolution[0], resolution[1]
+        )));
+    }
+    let base = RunSettings {
+        integrator: IntegratorSettings {
+            max_depth: args.max_depth.unwrap_or(scene.render.max_depth),
+            light_samples: args
+                .light_samples
+                .unwrap_or(scene.render.light_samples)
+                .max(1),
+            ..IntegratorSettings::default()
+        },
+        spp: args.spp.unwrap_or(scene.render.spp).max(1),
+        seed: args.seed.unwrap_or(scene.render.seed),
+        backend: args.accel.unwrap_or_else(Backend::default_backend),
+        sampler: SamplerKind::Independent,
+        resolution,
+        threads: args.threads,
+    };
+    let opts = StudyOptions {
+        out: args.out.clone(),
+        vary,
+        reference,
+        reference_spp: args.reference_spp,
+        base,
+        build: args.build.options(),
+    };
+    let quiet = args.quiet;
+    let say = move |m: &str| {
+        if !quiet {
+            eprintln!("{m}");
+        }
+    };
+    let rows = study::run(&args.scene, &scene, &opts, &say)?;
+    if !quiet {
+        for r in &rows {
+            println!(
+                "{:<40} {:>8.3} s  relMSE {:.3e}  efficiency {:.3e}{}",
+                r.label,
+                r.seconds,
+                r.rel_mse,
+                r.efficiency,
+                if r.pareto { "  (Pareto)" } else { "" }
+            );
+        }
+        println!("wrote {}", args.out.join("study.md").display());
+    }
+    Ok(())
 }
 
 fn run_diff(args: DiffArgs) -> Result<()> {
