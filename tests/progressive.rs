@@ -167,7 +167,11 @@ fn adaptive_sampling_spends_samples_where_variance_is_high() {
         },
     );
     let counts = &p.pixel_samples;
-    assert!(counts.iter().all(|&c| (16..=512).contains(&c) && c % 16 == 0));
+    assert!(
+        counts
+            .iter()
+            .all(|&c| (16..=512).contains(&c) && c % 16 == 0)
+    );
     assert!(counts.contains(&16) && counts.iter().any(|&c| c > 64));
     // rank pixels by relative noise measured in a separate uniform render
     let uniform = one_run(&scene, &settings(32, 64, 7, SamplerKind::Independent));
