@@ -18,9 +18,10 @@ pub const BLACK: Rgb = [0, 0, 0];
 /// Light grey, for grid lines.
 pub const GRID: Rgb = [225, 225, 225];
 
-/// Distinguishable line colours (Okabe and Ito's colour-blind-safe set,
-/// "Color Universal Design", 2008), cycled.
-pub const PALETTE: [Rgb; 8] = [
+/// Distinguishable line colours: Okabe and Ito's colour-blind-safe set
+/// ("Color Universal Design", 2008), then four darker ones. Series beyond
+/// these repeat the colours with dashed lines.
+pub const PALETTE: [Rgb; 12] = [
     [0, 114, 178],
     [213, 94, 0],
     [0, 158, 115],
@@ -28,7 +29,11 @@ pub const PALETTE: [Rgb; 8] = [
     [230, 159, 0],
     [86, 180, 233],
     [0, 0, 0],
-    [240, 228, 66],
+    [200, 190, 40],
+    [140, 20, 20],
+    [90, 50, 150],
+    [120, 120, 120],
+    [60, 100, 30],
 ];
 
 /// Side of a glyph in pixels at scale 1.
@@ -86,14 +91,23 @@ impl Canvas {
     /// A line `thickness` pixels wide from `a` to `b` (Bresenham's
     /// algorithm, a square pen).
     pub fn line(&mut self, a: (f64, f64), b: (f64, f64), c: Rgb, thickness: u32) {
+        self.dashed_line(a, b, c, thickness, 0);
+    }
+
+    /// A line drawn `dash` pixels on, `dash` off (solid for 0).
+    pub fn dashed_line(&mut self, a: (f64, f64), b: (f64, f64), c: Rgb, thickness: u32, dash: u32) {
         let (mut x0, mut y0) = (a.0.round() as i64, a.1.round() as i64);
         let (x1, y1) = (b.0.round() as i64, b.1.round() as i64);
         let (dx, dy) = ((x1 - x0).abs(), -(y1 - y0).abs());
         let (sx, sy) = (if x0 < x1 { 1 } else { -1 }, if y0 < y1 { 1 } else { -1 });
         let mut err = dx + dy;
         let r = thickness as i64 / 2;
+        let mut step = 0u32;
         loop {
-            self.fill(x0 - r, y0 - r, thickness, thickness, c);
+            if dash == 0 || (step / dash) % 2 == 0 {
+                self.fill(x0 - r, y0 - r, thickness, thickness, c);
+            }
+            step += 1;
             if x0 == x1 && y0 == y1 {
                 break;
             }
@@ -280,6 +294,7 @@ pub fn log_log_plot(
     c.text_up(16, (top + bottom) / 2 + yl / 2, y_label, BLACK, 1);
     for (k, s) in series.iter().enumerate() {
         let col = PALETTE[k % PALETTE.len()];
+        let dash = if (k / PALETTE.len()) % 2 == 1 { 6 } else { 0 };
         let p: Vec<(f64, f64)> = s
             .points
             .iter()
@@ -287,18 +302,17 @@ pub fn log_log_plot(
             .map(|&(x, y)| (px(x), py(y)))
             .collect();
         for w in p.windows(2) {
-            c.line(w[0], w[1], col, 2);
+            c.dashed_line(w[0], w[1], col, 2, dash);
         }
         for &q in &p {
             c.fill(q.0 as i64 - 2, q.1 as i64 - 2, 5, 5, col);
         }
         let ly = top + 10 + 16 * k as i64;
-        c.line(
+        let (l0, l1) = (
             ((right + 20) as f64, (ly + 4) as f64),
             ((right + 40) as f64, (ly + 4) as f64),
-            col,
-            3,
         );
+        c.dashed_line(l0, l1, col, 3, dash.min(4));
         c.text(right + 46, ly, &s.label, BLACK, 1);
     }
     c
