@@ -33,6 +33,10 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+/// Added to the base seed for an `auto` reference, so that its noise is
+/// independent of the renders it judges.
+pub const REFERENCE_SEED_OFFSET: u64 = 1_000_003;
+
 /// Most settings one study renders.
 pub const MAX_SETTINGS: usize = 64;
 
@@ -332,7 +336,7 @@ pub fn run(
         ReferenceChoice::Auto => {
             let path = opts.out.join("reference.exr");
             let mut base = opts.base;
-            base.seed = opts.base.seed.wrapping_add(1_000_003);
+            base.seed = opts.base.seed.wrapping_add(REFERENCE_SEED_OFFSET);
             base.spp = opts.reference_spp.max(1);
             base.sampler = SamplerKind::Independent;
             let key = base.reference_key(scene_path, base.spp);
@@ -482,7 +486,7 @@ fn write_outputs(
     let mut md = format!(
         "# Study of `{}`\n\nBase settings: {} spp, max depth {}, {} light sample(s), direct `{}`, \
          roulette {:?} from depth {}, backend `{}`, sampler `{}`, {}x{}, seed {}.\n\n\
-         Reference: `{}`. Error is measured against it after every pass \
+         Reference: `{}`{}. Error is measured against it after every pass \
          (1, 2, 4, ... spp); its own noise is part of every figure.\n\n",
         scene_path.display(),
         opts.base.spp,
@@ -496,7 +500,15 @@ fn write_outputs(
         opts.base.resolution[0],
         opts.base.resolution[1],
         opts.base.seed,
-        ref_path.display()
+        ref_path.display(),
+        match opts.reference {
+            ReferenceChoice::Auto => format!(
+                " (rendered by the study: {} spp, independent sampler, seed {})",
+                opts.reference_spp,
+                opts.base.seed.wrapping_add(REFERENCE_SEED_OFFSET)
+            ),
+            ReferenceChoice::File(_) => String::new(),
+        }
     );
     md += "| setting | seconds | spp | rays | RMSE | relative MSE | efficiency | Pareto |\n";
     md += "|---|---:|---:|---:|---:|---:|---:|:-:|\n";
