@@ -224,6 +224,14 @@ struct RenderArgs {
     /// Fail (non-zero exit, no image) if any sample is NaN, infinite or negative.
     #[arg(long)]
     strict: bool,
+    /// Write where NaN, infinite or negative samples were: PNG (black where
+    /// none, brighter red for more) or EXR/PFM (the count per pixel).
+    #[arg(long, value_name = "FILE")]
+    aov: Option<PathBuf>,
+    /// Scale every sample down so that no component exceeds MAX (biased:
+    /// the report states the energy removed) [default: no clamp].
+    #[arg(long, value_name = "MAX")]
+    clamp: Option<f32>,
     /// Print nothing but errors.
     #[arg(short = 'q', long)]
     quiet: bool,
@@ -327,6 +335,34 @@ fn write_sample_map(path: &std::path::Path, w: u32, h: u32, counts: &[u32]) -> R
         .flat_map(|&c| embertrace::diff::ramp(c as f64 / top))
         .collect();
     film::write_png_rgb8(path, w, h, &rgb)
+}
+
+/// The map of rejected samples: per pixel, their count (EXR, PFM) or red
+/// brightening with the count, black where none (PNG).
+fn write_bad_sample_map(path: &std::path::Path, w: u32, h: u32, per_pixel: &[u32]) -> Result<()> {
+    let count = |i: usize| per_pixel.get(i).copied().unwrap_or(0);
+    if film::ImageFormat::from_path(path)? == film::ImageFormat::Png {
+        let top = per_pixel.iter().copied().max().unwrap_or(0).max(1) as f32;
+        let rgb: Vec<u8> = (0..w as usize * h as usize)
+            .flat_map(|i| match count(i) {
+                0 => [0, 0, 0],
+                c => [(95.0 + 160.0 * c as f32 / top) as u8, 0, 0],
+            })
+            .collect();
+        return film::write_png_rgb8(path, w, h, &rgb);
+    }
+    let mut map = film::Film::new(w, h);
+    for y in 0..h {
+        for x in 0..w {
+            let c = count((y * w + x) as usize) as f32;
+            map.add_sample(x, y, embertrace::math::Vec3::splat(c));
+        }
+    }
+    let opts = OutputOptions {
+        exposure: 0.0,
+        metadata: Vec::new(),
+    };
+    film::write_image(path, &map, &opts)
 }
 
 /// Write `value` as pretty JSON to `path`, atomically.
@@ -576,6 +612,16 @@ fn run_render(args: RenderArgs) -> Result<()> {
         adaptive,
     };
     budget.validate()?;
+    if let Some(p) = &args.aov {
+        film::check_output_path(p)?;
+    }
+    if let Some(c) = args.clamp {
+        if !(c > 0.0 && c.is_finite()) {
+            return Err(Error::Settings(format!(
+                "--clamp must be a positive number, not {c}"
+            )));
+        }
+    }
     if let Some(p) = &args.sample_map {
         if !budget.is_progressive() {
             return Err(Error::Settings(
@@ -652,6 +698,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
         threads: args.threads,
         tile_size: args.tile_size,
         sampler: args.sampler,
+        clamp: args.clamp,
     };
     let tiles =
         (w.div_ceil(settings.tile_size.max(1)) * h.div_ceil(settings.tile_size.max(1))) as u64;
@@ -744,6 +791,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
             film: po.film,
             rays: po.rays,
             nonfinite: po.nonfinite,
+            clamp: po.clamp,
             seconds: po.seconds,
             threads: po.threads,
         };
@@ -779,17 +827,29 @@ fn run_render(args: RenderArgs) -> Result<()> {
         }
         report.progressive = Some(p);
     }
-    if out.nonfinite.count > 0 {
+    let bad = &out.nonfinite;
+    if bad.count > 0 {
         say(&format!(
-            "warning: {} NaN, infinite or negative samples left out (first at pixel {:?})",
-            out.nonfinite.count, out.nonfinite.pixels[0]
+            "warning: {} samples left out ({} NaN, {} infinite, {} negative), first at pixel {:?}",
+            bad.count, bad.nan, bad.inf, bad.negative, bad.pixels[0]
         ));
         if args.strict {
             return Err(Error::Strict(format!(
-                "--strict: {} NaN, infinite or negative samples; no image written",
-                out.nonfinite.count
+                "--strict: {} NaN, infinite or negative samples, first at pixel {:?}; no image written",
+                bad.count, bad.pixels[0]
             )));
         }
+    }
+    if let Some(c) = &report.clamp {
+        say(&format!(
+            "--clamp {}: {} samples scaled down, {:.3} % of the energy removed",
+            c.max,
+            c.clamped_samples,
+            100.0 * c.removed_fraction
+        ));
+    }
+    if let Some(p) = &args.aov {
+        write_bad_sample_map(p, w, h, &bad.per_pixel)?;
     }
     let options = OutputOptions {
         exposure: args.exposure,

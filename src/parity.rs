@@ -246,6 +246,7 @@ fn compare_images(
         threads: 0,
         tile_size: 16,
         sampler: SamplerKind::Independent,
+        clamp: None,
     };
     // different seeds would make the test about noise; the same seed makes
     // the renders agree except where the backends' answers differ

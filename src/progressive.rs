@@ -34,7 +34,7 @@ use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::film::{Film, Pixel};
 use crate::integrator::{PathTracer, RayCounts};
-use crate::render::{NonFiniteReport, RenderSettings, render_pass, thread_pool};
+use crate::render::{ClampReport, NonFiniteReport, RenderSettings, render_pass, thread_pool};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -148,6 +148,8 @@ pub struct ProgressiveOutput {
     pub rays: RayCounts,
     /// Rejected samples.
     pub nonfinite: NonFiniteReport,
+    /// What `--clamp` removed.
+    pub clamp: ClampReport,
     /// Seconds spent rendering.
     pub seconds: f64,
     /// Threads used.
@@ -225,6 +227,7 @@ pub fn render_progressive(
     let (mut done, mut samples) = (0u32, 0u64);
     let mut rays = RayCounts::default();
     let mut nonfinite = NonFiniteReport::default();
+    let mut clamp = ClampReport::default();
     let mut passes = Vec::new();
     let start = Instant::now();
     let stop = loop {
@@ -255,6 +258,7 @@ pub fn render_progressive(
         let pass = render_pass(tracer, camera, &rs, &mut film, mask, &pool, &|| {});
         rays.add(&pass.rays);
         nonfinite.merge(&pass.nonfinite);
+        clamp.merge(&pass.clamp);
         for (a, c) in active.iter().zip(pixel_samples.iter_mut()) {
             if *a {
                 *c += n;
@@ -300,10 +304,12 @@ pub fn render_progressive(
             break StopReason::Spp;
         }
     };
+    nonfinite.finish(w);
     Ok(ProgressiveOutput {
         film,
         rays,
         nonfinite,
+        clamp,
         seconds: start.elapsed().as_secs_f64(),
         threads: pool.current_num_threads(),
         passes,

@@ -9,16 +9,44 @@ use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::film::{Film, Tile};
 use crate::integrator::{PathTracer, RayCounts};
-use crate::math::Vec2;
+use crate::math::{Ray, Vec2, Vec3};
 use crate::sampler::{Sampler, SamplerKind};
 use rayon::prelude::*;
 use std::time::Instant;
+
+/// What the render loop asks of an estimator: the radiance of one sample.
+/// The path tracer is one; tests implement it to inject known samples (NaN,
+/// negative, bright) at chosen pixels.
+pub trait Radiance: Sync {
+    /// Radiance along `ray`, sample `sample` of pixel `pixel`.
+    fn radiance(
+        &self,
+        pixel: [u32; 2],
+        sample: u32,
+        ray: &Ray,
+        sampler: &mut Sampler,
+        rays: &mut RayCounts,
+    ) -> Vec3;
+}
+
+impl Radiance for PathTracer<'_> {
+    fn radiance(
+        &self,
+        _pixel: [u32; 2],
+        _sample: u32,
+        ray: &Ray,
+        sampler: &mut Sampler,
+        rays: &mut RayCounts,
+    ) -> Vec3 {
+        self.li(ray, sampler, rays)
+    }
+}
 
 /// How many offending pixels a report keeps.
 pub const NONFINITE_PIXELS_KEPT: usize = 16;
 
 /// What the render loop needs besides the scene and estimator.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RenderSettings {
     /// Image width and height.
     pub resolution: [u32; 2],
@@ -34,27 +62,126 @@ pub struct RenderSettings {
     pub tile_size: u32,
     /// Sample generator.
     pub sampler: SamplerKind,
+    /// Largest component a sample may have (`--clamp`); `None` keeps every
+    /// sample as it is (no bias).
+    pub clamp: Option<f32>,
 }
 
-/// Samples that were NaN, infinite or negative, and where.
+/// Samples that were NaN, infinite or negative, and where. Such a sample
+/// is left out of its pixel (which then averages the samples it kept: a
+/// pixel that loses samples this way is biased by whatever made them bad,
+/// which is why they are counted and reported rather than zeroed).
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct NonFiniteReport {
     /// How many samples were rejected.
     pub count: u64,
-    /// The first few pixels (in tile order) where it happened.
+    /// Of which had a NaN component.
+    pub nan: u64,
+    /// Had an infinite component (and no NaN).
+    pub inf: u64,
+    /// Were finite with a negative component.
+    pub negative: u64,
+    /// Rejected samples per pixel, row-major; empty until the first one.
+    pub per_pixel: Vec<u32>,
+    /// The first [`NONFINITE_PIXELS_KEPT`] pixels with a rejected sample,
+    /// `[x, y]` in scan order (the same for any thread count or tiling).
     pub pixels: Vec<[u32; 2]>,
 }
 
 impl NonFiniteReport {
-    /// Add `other`'s count and pixels (up to [`NONFINITE_PIXELS_KEPT`]).
+    /// Add `other`'s counts.
     pub fn merge(&mut self, other: &NonFiniteReport) {
         self.count += other.count;
-        for &p in &other.pixels {
-            if self.pixels.len() < NONFINITE_PIXELS_KEPT {
-                self.pixels.push(p);
+        self.nan += other.nan;
+        self.inf += other.inf;
+        self.negative += other.negative;
+        if !other.per_pixel.is_empty() {
+            if self.per_pixel.is_empty() {
+                self.per_pixel = vec![0; other.per_pixel.len()];
+            }
+            for (a, b) in self.per_pixel.iter_mut().zip(&other.per_pixel) {
+                *a += b;
             }
         }
     }
+
+    /// Record a rejected sample `l` at pixel `index` of an image `width`
+    /// pixels wide and `n_pixels` in all.
+    fn record(&mut self, l: Vec3, index: usize, n_pixels: usize) {
+        self.count += 1;
+        if l.is_nan() {
+            self.nan += 1;
+        } else if !l.is_finite() {
+            self.inf += 1;
+        } else {
+            self.negative += 1;
+        }
+        if self.per_pixel.is_empty() {
+            self.per_pixel = vec![0; n_pixels];
+        }
+        self.per_pixel[index] += 1;
+    }
+
+    /// Fill [`Self::pixels`] from the per-pixel counts.
+    pub fn finish(&mut self, width: u32) {
+        self.pixels = self
+            .per_pixel
+            .iter()
+            .enumerate()
+            .filter(|&(_, &c)| c > 0)
+            .take(NONFINITE_PIXELS_KEPT)
+            .map(|(i, _)| [i as u32 % width, i as u32 / width])
+            .collect();
+    }
+}
+
+/// What `--clamp` removed: clamping bounds each sample's largest component,
+/// scaling the sample down (its hue kept). It trades variance for bias; the
+/// report says how much energy it took.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ClampReport {
+    /// Samples that were scaled down.
+    pub clamped: u64,
+    /// Radiance removed, summed over all samples, per channel.
+    pub removed: [f64; 3],
+    /// Radiance kept, summed over all samples, per channel.
+    pub kept: [f64; 3],
+}
+
+impl ClampReport {
+    /// Add `other`'s counts.
+    pub fn merge(&mut self, other: &ClampReport) {
+        self.clamped += other.clamped;
+        for c in 0..3 {
+            self.removed[c] += other.removed[c];
+            self.kept[c] += other.kept[c];
+        }
+    }
+
+    /// Removed energy as a share of all energy (removed + kept), summed over
+    /// channels; 0 when nothing was rendered.
+    pub fn removed_fraction(&self) -> f64 {
+        let r: f64 = self.removed.iter().sum();
+        let k: f64 = self.kept.iter().sum();
+        if r + k > 0.0 { r / (r + k) } else { 0.0 }
+    }
+}
+
+/// Scale `l` so that its largest component is at most `max`, recording
+/// what that removed.
+fn clamp_sample(l: Vec3, max: Option<f32>, report: &mut ClampReport) -> Vec3 {
+    let out = match max {
+        Some(m) if l.max_element() > m => {
+            report.clamped += 1;
+            l * (m / l.max_element())
+        }
+        _ => l,
+    };
+    for c in 0..3 {
+        report.removed[c] += f64::from(l[c]) - f64::from(out[c]);
+        report.kept[c] += f64::from(out[c]);
+    }
+    out
 }
 
 /// A finished render.
@@ -66,6 +193,8 @@ pub struct RenderOutput {
     pub rays: RayCounts,
     /// Rejected samples.
     pub nonfinite: NonFiniteReport,
+    /// What `--clamp` removed.
+    pub clamp: ClampReport,
     /// Wall-clock seconds spent rendering.
     pub seconds: f64,
     /// Threads actually used.
@@ -76,6 +205,7 @@ struct TileResult {
     tile: Tile,
     rays: RayCounts,
     nonfinite: NonFiniteReport,
+    clamp: ClampReport,
 }
 
 /// What one pass added besides the samples in the film.
@@ -85,6 +215,8 @@ pub struct PassOutput {
     pub rays: RayCounts,
     /// Rejected samples.
     pub nonfinite: NonFiniteReport,
+    /// What `--clamp` removed.
+    pub clamp: ClampReport,
 }
 
 /// A pool of `threads` workers (0 = one per core).
@@ -98,7 +230,7 @@ pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
 /// Render `settings.spp` samples per pixel into a new film. `on_tile` is called
 /// after each finished tile (for progress bars).
 pub fn render(
-    tracer: &PathTracer<'_>,
+    tracer: &dyn Radiance,
     camera: &Camera,
     settings: &RenderSettings,
     on_tile: &(dyn Fn() + Sync),
@@ -112,6 +244,7 @@ pub fn render(
         film,
         rays: pass.rays,
         nonfinite: pass.nonfinite,
+        clamp: pass.clamp,
         seconds: start.elapsed().as_secs_f64(),
         threads: pool.current_num_threads(),
     })
@@ -123,7 +256,7 @@ pub fn render(
 /// order onto what it holds, so passes of `n` and then `m` samples give the
 /// same bits as one pass of `n + m`.
 pub fn render_pass(
-    tracer: &PathTracer<'_>,
+    tracer: &dyn Radiance,
     camera: &Camera,
     settings: &RenderSettings,
     film: &mut Film,
@@ -148,12 +281,14 @@ pub fn render_pass(
         film.store_tile(&r.tile);
         out.rays.add(&r.rays);
         out.nonfinite.merge(&r.nonfinite);
+        out.clamp.merge(&r.clamp);
     }
+    out.nonfinite.finish(film.width());
     out
 }
 
 fn render_tile(
-    tracer: &PathTracer<'_>,
+    tracer: &dyn Radiance,
     camera: &Camera,
     settings: &RenderSettings,
     active: Option<&[bool]>,
@@ -161,6 +296,8 @@ fn render_tile(
 ) -> TileResult {
     let mut rays = RayCounts::default();
     let mut nonfinite = NonFiniteReport::default();
+    let mut clamp = ClampReport::default();
+    let n_pixels = settings.resolution[0] as usize * settings.resolution[1] as usize;
     let b = tile.bounds();
     let width = settings.resolution[0] as u64;
     for y in b.y0..b.y0 + b.height {
@@ -174,14 +311,11 @@ fn render_tile(
                     Sampler::with_kind(settings.sampler, settings.seed, pixel, s as u64);
                 let jitter = sampler.next_2d();
                 let ray = camera.generate_ray(Vec2::new(x as f32, y as f32) + jitter);
-                let l = tracer.li(&ray, &mut sampler, &mut rays);
+                let l = tracer.radiance([x, y], s, &ray, &mut sampler, &mut rays);
                 if l.is_finite() && l.min_element() >= 0.0 {
-                    tile.add_sample(x, y, l);
+                    tile.add_sample(x, y, clamp_sample(l, settings.clamp, &mut clamp));
                 } else {
-                    nonfinite.count += 1;
-                    if nonfinite.pixels.len() < NONFINITE_PIXELS_KEPT {
-                        nonfinite.pixels.push([x, y]);
-                    }
+                    nonfinite.record(l, pixel as usize, n_pixels);
                 }
             }
         }
@@ -190,5 +324,6 @@ fn render_tile(
         tile,
         rays,
         nonfinite,
+        clamp,
     }
 }

@@ -23,8 +23,27 @@ pub struct RaysReport {
 /// Rejected (NaN, infinite, negative) samples.
 #[derive(Debug, Clone, Serialize)]
 pub struct NonFinitePixels {
-    /// The first few pixels, `[x, y]`.
+    /// Samples with a NaN component.
+    pub nan: u64,
+    /// Samples with an infinite component (and no NaN).
+    pub inf: u64,
+    /// Finite samples with a negative component.
+    pub negative: u64,
+    /// The first few pixels with a rejected sample, `[x, y]` in scan order.
     pub first_pixels: Vec<[u32; 2]>,
+}
+
+/// What `--clamp` removed (clamping biases the image darker).
+#[derive(Debug, Clone, Serialize)]
+pub struct ClampSummary {
+    /// The largest component a sample could keep.
+    pub max: f32,
+    /// Samples scaled down.
+    pub clamped_samples: u64,
+    /// Radiance removed per sample on average, per channel.
+    pub removed_per_sample: [f64; 3],
+    /// Removed energy as a share of all the energy the samples carried.
+    pub removed_fraction: f64,
 }
 
 /// Everything `--report` writes.
@@ -74,6 +93,9 @@ pub struct RenderReport {
     pub nonfinite: NonFinitePixels,
     /// Mean linear RGB over the image.
     pub mean_rgb: [f64; 3],
+    /// What `--clamp` removed (absent without a clamp).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub clamp: Option<ClampSummary>,
     /// Passes, budgets and the error estimate of a progressive render
     /// (absent for a fixed-spp render).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -160,9 +182,21 @@ impl RenderReport {
             mpaths_per_second: per_second(out.rays.camera),
             nonfinite_samples: out.nonfinite.count,
             nonfinite: NonFinitePixels {
+                nan: out.nonfinite.nan,
+                inf: out.nonfinite.inf,
+                negative: out.nonfinite.negative,
                 first_pixels: out.nonfinite.pixels.clone(),
             },
             mean_rgb: out.film.mean_rgb(),
+            clamp: settings.clamp.map(|max| {
+                let n = (out.film.total_samples() + out.nonfinite.count).max(1) as f64;
+                ClampSummary {
+                    max,
+                    clamped_samples: out.clamp.clamped,
+                    removed_per_sample: out.clamp.removed.map(|r| r / n),
+                    removed_fraction: out.clamp.removed_fraction(),
+                }
+            }),
             progressive: None,
         }
     }

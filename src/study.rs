@@ -275,6 +275,7 @@ impl Renderer<'_> {
             threads: s.threads,
             tile_size: 16,
             sampler: s.sampler,
+            clamp: None,
         };
         let budget = Budget {
             max_spp: s.spp,

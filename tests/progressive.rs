@@ -33,6 +33,7 @@ fn settings(res: u32, spp: u32, seed: u64, sampler: SamplerKind) -> RenderSettin
         threads: 0,
         tile_size: 8,
         sampler,
+        clamp: None,
     }
 }
 

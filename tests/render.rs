@@ -43,6 +43,7 @@ fn render_box(
         threads,
         tile_size: tile,
         sampler: SamplerKind::Independent,
+        clamp: None,
     };
     render(&tracer, &camera, &rs, &|| {}).unwrap()
 }
@@ -294,6 +295,7 @@ fn render_sampler(scene: &Scene, sampler: SamplerKind, spp: u32, threads: usize)
         threads,
         tile_size: 8,
         sampler,
+        clamp: None,
     };
     render(&tracer, &camera, &rs, &|| {}).unwrap()
 }
