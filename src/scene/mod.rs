@@ -57,6 +57,13 @@ pub struct CameraDesc {
     pub fov_y: f32,
 }
 
+/// Largest coordinate magnitude a placed vertex may have. Embree treats a
+/// primitive with a vertex beyond about 1.844e18 in magnitude as invalid and
+/// silently ignores it (Embree API documentation, "invalid primitives"); we
+/// drop such triangles ourselves, with a note, so that every backend sees
+/// the same scene and the user hears about it.
+pub const MAX_COORDINATE: f32 = 1.8e18;
+
 /// Render settings a scene file may set; command-line flags override them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RenderDefaults {
@@ -328,7 +335,8 @@ impl SceneBuilder {
     }
 
     /// Add a mesh placed by `transform`. Triangles whose corners become
-    /// non-finite, or whose area is zero, are dropped and counted in a note.
+    /// non-finite or leave [`MAX_COORDINATE`], or whose area is zero, are
+    /// dropped and counted in a note naming the mesh.
     pub fn add_mesh(&mut self, mesh: MeshData, transform: &Transform) {
         let s = &mut self.scene;
         let m = transform.matrix();
@@ -346,7 +354,8 @@ impl SceneBuilder {
                 idx.swap(1, 2);
             }
             let p = idx.map(|i| s.positions[i as usize]);
-            if !p.iter().all(|q| q.is_finite()) {
+            if !p.iter().all(|q| q.abs().max_element() <= MAX_COORDINATE) {
+                // NaN and infinities fail the comparison too
                 nonfinite += 1;
                 continue;
             }
@@ -360,7 +369,7 @@ impl SceneBuilder {
         }
         if nonfinite > 0 {
             s.notes.push(format!(
-                "mesh {}: dropped {nonfinite} triangles whose placed coordinates are not finite",
+                "mesh {}: dropped {nonfinite} triangles whose placed coordinates are not finite or exceed {MAX_COORDINATE:e} in magnitude",
                 mesh.name
             ));
         }
