@@ -26,6 +26,7 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
                 ),
             ));
         }
+        validate_mtl(lib)?;
     }
     let options = tobj::LoadOptions {
         triangulate: true,
@@ -125,11 +126,15 @@ fn convert_material(m: &tobj::Material, libs: &[PathBuf], obj: &Path) -> Result<
 /// Check vertex lines and face indices, naming the line of the first problem.
 /// Returns the material libraries the file names, resolved next to it.
 fn validate(path: &Path, text: &str) -> Result<Vec<PathBuf>> {
-    let total_vertices = text
-        .lines()
-        .filter(|l| l.trim_start().starts_with("v ") || l.trim_start().starts_with("v\t"))
-        .count() as i64;
-    let mut seen_vertices = 0i64;
+    let count = |key: &str| {
+        text.lines()
+            .filter(|l| l.split_whitespace().next() == Some(key))
+            .count() as i64
+    };
+    // positions, texture coordinates, normals: in the file, and seen so far
+    // (negative indices count back from the last one seen)
+    let total = [count("v"), count("vt"), count("vn")];
+    let mut seen = [0i64; 3];
     let mut libs = Vec::new();
     let dir = path.parent().unwrap_or(Path::new(""));
     for (n, line) in text.lines().enumerate() {
@@ -167,8 +172,10 @@ fn validate(path: &Path, text: &str) -> Result<Vec<PathBuf>> {
                         }
                     }
                 }
-                seen_vertices += 1;
+                seen[0] += 1;
             }
+            Some("vt") => seen[1] += 1,
+            Some("vn") => seen[2] += 1,
             Some("f") => {
                 let verts: Vec<&str> = words.collect();
                 if verts.len() < 3 {
@@ -179,27 +186,43 @@ fn validate(path: &Path, text: &str) -> Result<Vec<PathBuf>> {
                     ));
                 }
                 for v in verts {
-                    let first = v.split('/').next().unwrap_or("");
-                    let Ok(i) = first.parse::<i64>() else {
-                        return Err(Error::input(
-                            path,
-                            line_no,
-                            format!("cannot parse face vertex `{v}` (expected an index)"),
-                        ));
-                    };
-                    let ok = if i > 0 {
-                        i <= total_vertices
-                    } else {
-                        i < 0 && seen_vertices + i >= 0
-                    };
-                    if !ok {
+                    let parts: Vec<&str> = v.split('/').collect();
+                    if parts.len() > 3 || parts[0].is_empty() {
                         return Err(Error::input(
                             path,
                             line_no,
                             format!(
-                                "face index {i} out of range (the file has {total_vertices} vertices)"
+                                "cannot parse face vertex `{v}` (expected v, v/vt, v//vn or v/vt/vn)"
                             ),
                         ));
+                    }
+                    const KIND: [&str; 3] = ["vertex", "texture coordinate", "normal"];
+                    for (k, part) in parts.iter().enumerate() {
+                        if part.is_empty() {
+                            continue;
+                        }
+                        let Ok(i) = part.parse::<i64>() else {
+                            return Err(Error::input(
+                                path,
+                                line_no,
+                                format!("cannot parse face vertex `{v}` (expected an index)"),
+                            ));
+                        };
+                        let ok = if i > 0 {
+                            i <= total[k]
+                        } else {
+                            i < 0 && seen[k] + i >= 0
+                        };
+                        if !ok {
+                            return Err(Error::input(
+                                path,
+                                line_no,
+                                format!(
+                                    "face {} index {i} out of range (the file has {} of them)",
+                                    KIND[k], total[k]
+                                ),
+                            ));
+                        }
                     }
                 }
             }
@@ -213,6 +236,33 @@ fn validate(path: &Path, text: &str) -> Result<Vec<PathBuf>> {
         }
     }
     Ok(libs)
+}
+
+/// Check the colour lines of a material library before tobj reads it:
+/// tobj 4.0 panics on a `Kd`, `Ka`, `Ks`, `Ke` or `Tf` line with fewer than
+/// three values (found by `tests/fuzz_loaders.rs`), so those get a clear
+/// error with the line instead.
+fn validate_mtl(lib: &Path) -> Result<()> {
+    let bytes = std::fs::read(lib).map_err(|e| Error::io(lib, e))?;
+    let text = String::from_utf8_lossy(&bytes);
+    for (n, line) in text.lines().enumerate() {
+        let line = line.split('#').next().unwrap_or("");
+        let mut words = line.split_whitespace();
+        if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke" | "Tf")) = words.next() {
+            let values: Vec<&str> = words.take(3).collect();
+            if values.len() < 3 || values.iter().any(|v| v.parse::<f32>().is_err()) {
+                return Err(Error::input(
+                    lib,
+                    Some(n + 1),
+                    format!(
+                        "expected three numbers after `{key}`, got `{}`",
+                        values.join(" ")
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// A bare `.obj` as a scene: framed from its bounds, lit by a uniform white
