@@ -149,6 +149,25 @@ fn cases() -> Vec<Case> {
             scene: "s.toml",
             expect: vec!["s.toml:5", "non-negative"],
         },
+        // found by tests/fuzz_loaders.rs: both made tobj 4.0 panic
+        Case {
+            name: "colour with two values in the material library",
+            files: vec![
+                ("m.obj", format!("mtllib m.mtl\nusemtl a\n{GOOD_OBJ}")),
+                ("m.mtl", "newmtl a\nKd 0.5 0.5\n".into()),
+            ],
+            scene: "m.obj",
+            expect: vec!["m.mtl:2", "Kd"],
+        },
+        Case {
+            name: "normal index out of range",
+            files: vec![(
+                "m.obj",
+                "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//-11\n".into(),
+            )],
+            scene: "m.obj",
+            expect: vec!["m.obj:5", "normal index -11"],
+        },
     ]
 }
 
