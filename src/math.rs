@@ -10,6 +10,20 @@
 //! normal, rounded one ulp further away. The bias this introduces is the
 //! offset itself: surfaces closer than [`min_gap`] to the origin surface can
 //! be skipped.
+//!
+//! One addition to pbrt's bound: pbrt's own triangle test rejects hits whose
+//! `t` is within its error bound, so the point's error is all an offset must
+//! clear. Embree gives no such guarantee: its `t` for the source triangle
+//! can be off by a few ulps of the triangle's extent seen from the origin,
+//! which for a triangle much larger than the point's coordinates (a 2000-unit
+//! sliver hit near 10) is far more than the point's error, and more again
+//! for a needle, whose normal Embree computes from a cross product that
+//! cancels (its direction is off by about `eps / sin(smallest angle)`). The
+//! error box is therefore widened by `gamma(16) * reach * cond`, with
+//! `reach` the distance to the farthest corner and `cond` the triangle's
+//! `1 / sin(smallest angle)` (found by hard cases 4 and 5 in
+//! `tests/conformance.rs`: a 2000-unit sliver, and a needle of a sphere
+//! squashed 1e-4 : 2e-3 : 8).
 
 pub use glam::{DVec3, Vec2, Vec3};
 
@@ -153,7 +167,12 @@ impl SurfacePoint {
         // the plane y = 0, say), but a ray query's own rounding mixes the
         // axes, so an origin one ulp off such a plane can still see it at a
         // tiny positive t in a backend we cannot patch (Embree).
-        let p_err = Vec3::splat(p_err.max_element());
+        // Plus the backend allowance for large triangles (module docs).
+        let reach = p
+            .iter()
+            .map(|q| (*q - pos).abs().max_element())
+            .fold(0.0, f32::max);
+        let p_err = Vec3::splat(p_err.max_element() + gamma(16) * reach * needle_factor(p));
         SurfacePoint { p: pos, p_err, n }
     }
 }
@@ -209,14 +228,36 @@ pub fn spawn_ray_to(from: &SurfacePoint, to: &SurfacePoint) -> Ray {
     }
 }
 
+/// `1 / sin(smallest angle)` of a triangle, in `f64` (the largest product of
+/// two edge lengths over twice the area): 1.15 for an equilateral triangle,
+/// large for needles and slivers; 1 for a degenerate one, which is never
+/// hit.
+pub fn needle_factor(p: [Vec3; 3]) -> f32 {
+    let [a, b, c] = p.map(|q| q.as_dvec3());
+    let twice_area = (b - a).cross(c - a).length();
+    let l = [(b - a).length(), (c - b).length(), (a - c).length()];
+    let top = (l[0] * l[1]).max(l[1] * l[2]).max(l[2] * l[0]);
+    if twice_area > 0.0 && top.is_finite() {
+        (top / twice_area).max(1.0) as f32
+    } else {
+        1.0
+    }
+}
+
 /// Smallest gap between two parallel surfaces, at coordinates of magnitude
-/// `scale`, that a spawned ray never skips: the offset is at most
-/// `gamma(7) * 3 * scale * sqrt(3)` plus two ulps (the error box projected on
-/// the normal, then rounded out). Two surfaces farther apart than this are
-/// always resolved.
+/// at most `scale` (so corners at most `2 scale` apart per axis), that a
+/// spawned ray never skips: the offset is at most
+/// `(gamma(7) * 3 * scale + gamma(16) * 2 * scale * 2) * sqrt(3)` plus two
+/// ulps (the error box projected on the normal, then rounded out), about
+/// `9.0e-6 * scale`, for triangles whose smallest angle is at least 30
+/// degrees ([`needle_factor`] at most 2; a needle's gap grows with its
+/// factor). Two surfaces farther apart than this are always resolved;
+/// `tests/conformance.rs` case 6 checks thin shells at exactly this gap in
+/// every backend.
 pub fn min_gap(scale: f32) -> f32 {
-    let ulp = f32::EPSILON * scale.abs().max(f32::MIN_POSITIVE);
-    gamma(7) * 3.0 * scale.abs() * 3.0f32.sqrt() + 2.0 * ulp
+    let s = scale.abs();
+    let ulp = f32::EPSILON * s.max(f32::MIN_POSITIVE);
+    (gamma(7) * 3.0 * s + gamma(16) * 2.0 * s * 2.0) * 3.0f32.sqrt() + 2.0 * ulp
 }
 
 /// Linear-RGB luminance (Rec. 709 primaries).
@@ -292,6 +333,19 @@ mod tests {
         assert!((n - Vec3::Z).length() < 1e-6, "{n:?}");
         assert!(triangle_normal(Vec3::ZERO, Vec3::X, 2.0 * Vec3::X).is_none());
         assert!(triangle_normal(Vec3::ZERO, Vec3::ZERO, Vec3::Y).is_none());
+    }
+
+    #[test]
+    fn needle_factor_grows_as_the_smallest_angle_shrinks() {
+        let eq = [Vec3::ZERO, Vec3::X, Vec3::new(0.5, 0.75f32.sqrt(), 0.0)];
+        assert!((needle_factor(eq) - 2.0 / 3f32.sqrt()).abs() < 1e-6);
+        let right = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        assert!((needle_factor(right) - 2f32.sqrt()).abs() < 1e-6);
+        // a needle 8 long and 1e-3 wide: 1 / sin(angle) about 8 / 1e-3
+        let needle = [Vec3::ZERO, Vec3::new(8.0, 0.0, 0.0), Vec3::new(4.0, 1e-3, 0.0)];
+        let f = needle_factor(needle);
+        assert!(f > 3000.0 && f < 20_000.0, "{f}");
+        assert_eq!(needle_factor([Vec3::ZERO, Vec3::X, 2.0 * Vec3::X]), 1.0);
     }
 
     #[test]
