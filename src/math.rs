@@ -342,7 +342,11 @@ mod tests {
         let right = [Vec3::ZERO, Vec3::X, Vec3::Y];
         assert!((needle_factor(right) - 2f32.sqrt()).abs() < 1e-6);
         // a needle 8 long and 1e-3 wide: 1 / sin(angle) about 8 / 1e-3
-        let needle = [Vec3::ZERO, Vec3::new(8.0, 0.0, 0.0), Vec3::new(4.0, 1e-3, 0.0)];
+        let needle = [
+            Vec3::ZERO,
+            Vec3::new(8.0, 0.0, 0.0),
+            Vec3::new(4.0, 1e-3, 0.0),
+        ];
         let f = needle_factor(needle);
         assert!(f > 3000.0 && f < 20_000.0, "{f}");
         assert_eq!(needle_factor([Vec3::ZERO, Vec3::X, 2.0 * Vec3::X]), 1.0);
