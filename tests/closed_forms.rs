@@ -245,3 +245,52 @@ fn polygon_lights_match_lamberts_formula_with_every_strategy() {
         }
     }
 }
+
+#[test]
+fn environment_furnace_every_sample_is_rho() {
+    // Hard case 23: a convex box (faces outward) with albedo rho inside a
+    // uniform environment of radiance 1, BSDF sampling only, no roulette:
+    // a camera ray that hits the box sees exactly rho (one bounce, then the
+    // sky), a miss sees 1. A self-hit after the bounce shows as rho^2 or
+    // less, so equality to f32 rounding (1e-5 relative) catches every leak.
+    let mut s = Sampler::new(23, 0, 0);
+    for backend in Backend::available() {
+        for rho in [0.5f32, 0.8] {
+            let mut m = MeshMaker::default();
+            let mat = m.material(rho, 0.0, false);
+            // lo and hi swapped: the same box with its faces pointing out
+            m.inward_box(Vec3::new(1.0, 0.5, 0.7), Vec3::new(-1.0, -0.5, -0.7), mat);
+            let mut scene = m.scene();
+            scene.environment = Some(Vec3::ONE);
+            let acc = accel::build(backend, scene.soup(), AccelOptions::default()).unwrap();
+            let t = PathTracer::new(
+                &scene,
+                acc.as_ref(),
+                tracer_settings(8, DirectStrategy::Bsdf, Roulette::Fixed(1.0)),
+            );
+            let mut hits = 0;
+            for i in 0..2000 {
+                let o = embertrace::sampling::square_to_uniform_sphere(s.next_2d()) * 4.0;
+                let target =
+                    Vec3::new(s.next_1d() - 0.5, s.next_1d() - 0.5, s.next_1d() - 0.5) * 2.2;
+                let ray = Ray::new(o, (target - o).normalize());
+                let expected = if acc.intersect(&ray).is_some() {
+                    hits += 1;
+                    rho
+                } else {
+                    1.0
+                };
+                let mut smp = Sampler::new(2, i, 0);
+                let l = t.li(&ray, &mut smp, &mut RayCounts::default());
+                for c in 0..3 {
+                    assert!(
+                        (l[c] - expected).abs() <= 1e-5 * expected,
+                        "{backend}: rho {rho}, ray {i}: {} != {expected}",
+                        l[c]
+                    );
+                }
+            }
+            assert!(hits > 500, "{backend}: only {hits} rays hit the box");
+        }
+    }
+}
