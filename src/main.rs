@@ -787,15 +787,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
                 confidence: CONFIDENCE,
             },
         };
-        let out = render::RenderOutput {
-            film: po.film,
-            rays: po.rays,
-            nonfinite: po.nonfinite,
-            clamp: po.clamp,
-            seconds: po.seconds,
-            threads: po.threads,
-        };
-        (out, Some(info))
+        (po.out, Some(info))
     } else {
         let out = render::render(&tracer, &camera, &settings, &|| bar.inc(1))?;
         bar.finish_and_clear();

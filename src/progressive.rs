@@ -34,7 +34,9 @@ use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::film::{Film, Pixel};
 use crate::integrator::{PathTracer, RayCounts};
-use crate::render::{ClampReport, NonFiniteReport, RenderSettings, render_pass, thread_pool};
+use crate::render::{
+    ClampReport, NonFiniteReport, RenderOutput, RenderSettings, render_pass, thread_pool,
+};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -142,18 +144,8 @@ pub enum StopReason {
 /// A finished progressive render.
 #[derive(Debug)]
 pub struct ProgressiveOutput {
-    /// The accumulated film.
-    pub film: Film,
-    /// Rays traced, by kind.
-    pub rays: RayCounts,
-    /// Rejected samples.
-    pub nonfinite: NonFiniteReport,
-    /// What `--clamp` removed.
-    pub clamp: ClampReport,
-    /// Seconds spent rendering.
-    pub seconds: f64,
-    /// Threads used.
-    pub threads: usize,
+    /// The film and the totals, as one run would give them.
+    pub out: RenderOutput,
     /// One record per pass.
     pub passes: Vec<PassRecord>,
     /// What ended the render.
@@ -306,12 +298,14 @@ pub fn render_progressive(
     };
     nonfinite.finish(w);
     Ok(ProgressiveOutput {
-        film,
-        rays,
-        nonfinite,
-        clamp,
-        seconds: start.elapsed().as_secs_f64(),
-        threads: pool.current_num_threads(),
+        out: RenderOutput {
+            film,
+            rays,
+            nonfinite,
+            clamp,
+            seconds: start.elapsed().as_secs_f64(),
+            threads: pool.current_num_threads(),
+        },
         passes,
         stop,
         pixel_samples,

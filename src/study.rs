@@ -284,7 +284,7 @@ impl Renderer<'_> {
         let out = render_progressive(&tracer, &camera, &rs, &budget, &mut |p, f| {
             on_pass(p.seconds, f)
         })?;
-        Ok((out.film, out.seconds, out.rays.total()))
+        Ok((out.out.film, out.out.seconds, out.out.rays.total()))
     }
 }
 
