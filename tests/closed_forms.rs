@@ -294,3 +294,59 @@ fn environment_furnace_every_sample_is_rho() {
         }
     }
 }
+
+#[test]
+fn roulette_is_unbiased_in_a_bright_furnace() {
+    // Hard case 24: rho = 0.9, Le = 1 (answer 10). Without roulette at
+    // depth 1000, BSDF sampling only, every sample equals the truncated sum
+    // (1 - 0.9^1001) / 0.1 exactly (to f32 rounding over 1000 bounces:
+    // 1e-4 relative); with throughput roulette from depth 1, 3 or 5 and MIS,
+    // the mean is 10 within a Sidak-corrected band from batch means, and
+    // every sample is finite.
+    let rho = 0.9f32;
+    let backends = Backend::available();
+    let depths = [1u32, 3, 5];
+    let z = sidak_z(1e-6, depths.len() * backends.len());
+    let rays = furnace_rays(64);
+    for backend in backends {
+        let scene = furnace(rho);
+        let acc = accel::build(backend, scene.soup(), AccelOptions::default()).unwrap();
+        let exact = (1.0 - 0.9f64.powi(1001)) / 0.1;
+        let t = PathTracer::new(
+            &scene,
+            acc.as_ref(),
+            tracer_settings(1000, DirectStrategy::Bsdf, Roulette::Fixed(1.0)),
+        );
+        for (i, ray) in rays.iter().enumerate().take(16) {
+            let l = t.li(
+                ray,
+                &mut Sampler::new(3, i as u64, 0),
+                &mut RayCounts::default(),
+            );
+            assert!(
+                (l.x as f64 - exact).abs() < 1e-4 * exact,
+                "{backend}: no roulette, ray {i}: {} != {exact}",
+                l.x
+            );
+        }
+        for rr_depth in depths {
+            let settings = IntegratorSettings {
+                rr_depth,
+                ..tracer_settings(1000, DirectStrategy::Mis, Roulette::Throughput)
+            };
+            let t = PathTracer::new(&scene, acc.as_ref(), settings);
+            let stats = batch_means(40_000, 100, |i| {
+                let mut s = Sampler::new(24, i as u64, rr_depth as u64);
+                let l = t.li(&rays[i % rays.len()], &mut s, &mut RayCounts::default());
+                assert!(l.is_finite(), "{backend}: non-finite sample {l}");
+                l.x as f64
+            });
+            assert!(
+                (stats.mean - 10.0).abs() < z * stats.std_err,
+                "{backend}: roulette from depth {rr_depth}: {} +- {} vs 10",
+                stats.mean,
+                stats.std_err
+            );
+        }
+    }
+}
