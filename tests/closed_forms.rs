@@ -419,3 +419,79 @@ fn light_very_close_to_the_receiver() {
         }
     }
 }
+
+#[test]
+fn zero_area_and_zero_power_emitters_change_nothing() {
+    // Hard case 19: emissive triangles with no area (collinear corners, a
+    // repeated corner) and an emitter with Le = 0 are never selected: the
+    // light list and every image bit equal those of the scene without them
+    // (with the Le = 0 triangle kept as plain geometry in both).
+    let square = [
+        Vec3::new(-0.5, -0.5, 1.0),
+        Vec3::new(0.5, -0.5, 1.0),
+        Vec3::new(0.5, 0.5, 1.0),
+        Vec3::new(-0.5, 0.5, 1.0),
+    ];
+    let build = |extra: bool| {
+        let mut m = MeshMaker::default();
+        let receiver = m.material(0.5, 0.0, false);
+        let light = m.material(0.0, 1.0, false);
+        let dark = m.material(0.5, 0.0, false);
+        m.quad(
+            Vec3::new(-4.0, -4.0, 0.0),
+            Vec3::new(4.0, -4.0, 0.0),
+            Vec3::new(4.0, 4.0, 0.0),
+            Vec3::new(-4.0, 4.0, 0.0),
+            receiver,
+        );
+        m.quad(square[0], square[3], square[2], square[1], light);
+        m.tri(
+            Vec3::new(2.0, 2.0, 0.5),
+            Vec3::new(3.0, 2.0, 0.5),
+            Vec3::new(2.0, 3.0, 0.5),
+            dark,
+        );
+        if extra {
+            let a = Vec3::new(-2.0, 1.0, 0.7);
+            m.tri(a, a + Vec3::X, a + 2.0 * Vec3::X, light); // collinear
+            m.tri(a, a, a + Vec3::Y, light); // repeated corner
+        }
+        m.scene()
+    };
+    let (plain, with) = (build(false), build(true));
+    let lights = |s: &Scene| embertrace::light::Lights::new(s).area_lights().len();
+    assert_eq!(lights(&plain), 2);
+    assert_eq!(lights(&with), lights(&plain));
+    for backend in Backend::available() {
+        let image = |s: &Scene| {
+            let acc = accel::build(backend, s.soup(), AccelOptions::default()).unwrap();
+            let t = PathTracer::new(
+                s,
+                acc.as_ref(),
+                tracer_settings(3, DirectStrategy::Mis, Roulette::Throughput),
+            );
+            (0..2000)
+                .map(|i| {
+                    let o = Vec3::new(3.0, -1.0, 0.4);
+                    let d = (Vec3::new(
+                        (i % 40) as f32 * 0.1 - 2.0,
+                        (i / 40) as f32 * 0.1 - 2.5,
+                        0.0,
+                    ) - o)
+                        .normalize();
+                    let l = t.li(
+                        &Ray::new(o, d),
+                        &mut Sampler::new(19, i, 0),
+                        &mut RayCounts::default(),
+                    );
+                    l.to_array().map(f32::to_bits)
+                })
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(
+            image(&plain),
+            image(&with),
+            "{backend}: degenerate emitters changed the image"
+        );
+    }
+}
