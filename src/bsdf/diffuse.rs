@@ -79,6 +79,30 @@ mod tests {
     }
 
     #[test]
+    fn white_diffuse_reflects_all_energy() {
+        // Hard case 15: the directional albedo of rho = 1, the integral of
+        // f cos over the hemisphere, by a midpoint rule in (cos theta, phi)
+        // (exact for a constant f: the error is the rule's, below 1e-6).
+        let d = Diffuse { albedo: Vec3::ONE };
+        let wo = Vec3::new(0.3, 0.1, 0.9).normalize();
+        let (nt, np) = (400, 400);
+        let mut sum = 0.0f64;
+        for i in 0..nt {
+            let c = (i as f32 + 0.5) / nt as f32;
+            let s = (1.0 - c * c).sqrt();
+            for j in 0..np {
+                let phi = 2.0 * std::f32::consts::PI * (j as f32 + 0.5) / np as f32;
+                let wi = Vec3::new(s * phi.cos(), s * phi.sin(), c);
+                // d(omega) = d(cos) d(phi)
+                sum += (d.eval(wo, wi).x * c) as f64
+                    * (1.0 / nt as f64)
+                    * (std::f64::consts::TAU / np as f64);
+            }
+        }
+        assert!((sum - 1.0).abs() < 1e-5 && sum <= 1.01, "albedo {sum}");
+    }
+
+    #[test]
     fn grazing_and_opposite_sides() {
         let b = Diffuse { albedo: Vec3::ONE };
         let wo = Vec3::Z;
