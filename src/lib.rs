@@ -26,3 +26,4 @@ pub mod report;
 pub mod sampler;
 pub mod sampling;
 pub mod scene;
+pub mod texture;
