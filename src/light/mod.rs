@@ -7,9 +7,11 @@
 //! Emitters with zero area or zero radiance get probability zero.
 
 pub mod directional;
+pub mod envmap;
 pub mod point;
 
 pub use directional::DirectionalLight;
+pub use envmap::{EnvironmentMap, EnvironmentSample};
 pub use point::PointLight;
 
 use crate::math::Ray;
