@@ -30,3 +30,4 @@ pub mod sampler;
 pub mod sampling;
 pub mod scene;
 pub mod study;
+pub mod texture;

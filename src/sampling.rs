@@ -6,6 +6,9 @@
 use crate::math::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};
 
+pub mod distribution;
+pub use distribution::{PiecewiseConstant1D, PiecewiseConstant2D, Sample1D, Sample2D};
+
 /// Concentric map of the unit square to the unit disk (Shirley and Chiu 1997).
 pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
     let o = 2.0 * u - Vec2::ONE;

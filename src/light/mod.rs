@@ -6,6 +6,14 @@
 //! `r^2 / |cos theta_l|`, or a uniform direction for the environment.
 //! Emitters with zero area or zero radiance get probability zero.
 
+pub mod directional;
+pub mod envmap;
+pub mod point;
+
+pub use directional::DirectionalLight;
+pub use envmap::{EnvironmentMap, EnvironmentSample};
+pub use point::PointLight;
+
 use crate::math::Ray;
 use crate::math::{SurfacePoint, Vec2, Vec3, luminance, spawn_ray, spawn_ray_to};
 use crate::sampling::{
@@ -35,6 +43,25 @@ pub struct LightSample {
     /// Radiance arriving along `-wi` if unoccluded.
     pub li: Vec3,
     /// Solid-angle density of `wi`, including the choice of light; `> 0`.
+    pub pdf: f32,
+    /// The shadow ray to test.
+    pub shadow: Ray,
+}
+
+/// What a light with a delta distribution in direction (a point or a
+/// directional light) sends to a shading point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DeltaLightSample {
+    /// Unit direction from the shading point towards the light.
+    pub wi: Vec3,
+    /// What arrives along `-wi` if unoccluded: radiance times the delta's
+    /// solid angle, i.e. `I / r^2` or the irradiance `E`. The estimator
+    /// multiplies it by the BSDF and `|cos|`, never by a MIS weight.
+    pub li: Vec3,
+    /// Distance to the light (infinite for a directional light).
+    pub dist: f32,
+    /// Always 1: the probability of `wi` with respect to the delta (divide by
+    /// the light's selection probability as for any light).
     pub pdf: f32,
     /// The shadow ray to test.
     pub shadow: Ray,

@@ -1,0 +1,106 @@
+//! A point light: `intensity` I (W/sr, per RGB channel) radiated equally in
+//! every direction from `position` (pbrt-v4 section 12.1, `PointLight`).
+//!
+//! Seen from a point at distance r it contributes I / r^2 along the single
+//! direction towards it: a delta distribution in direction, so it is only
+//! reached by light sampling (the sample's `pdf` is 1 with respect to that
+//! delta, and no MIS applies). Its power, for light selection, is the
+//! luminance of `4 pi I`.
+
+use super::DeltaLightSample;
+use crate::math::{SurfacePoint, Vec3, luminance, spawn_ray_to};
+use std::f32::consts::PI;
+
+/// A point light.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointLight {
+    /// Where it is.
+    pub position: Vec3,
+    /// Radiant intensity, W/sr.
+    pub intensity: Vec3,
+}
+
+impl PointLight {
+    /// A point light at `position` with `intensity` (W/sr).
+    pub fn new(position: Vec3, intensity: Vec3) -> Self {
+        PointLight {
+            position,
+            intensity,
+        }
+    }
+
+    /// The light as seen from `from`: `None` when `from` is at the light
+    /// (the distance is 0 or not finite).
+    pub fn sample_li(&self, from: &SurfacePoint) -> Option<DeltaLightSample> {
+        let delta = self.position - from.p;
+        let dist2 = delta.length_squared();
+        if !(dist2 > 0.0) || !dist2.is_finite() {
+            return None;
+        }
+        let dist = dist2.sqrt();
+        let wi = delta / dist;
+        // the light is a point in empty space: no error box, and its "normal"
+        // faces the shading point, so the shadow ray's end is not offset
+        let light = SurfacePoint {
+            p: self.position,
+            p_err: Vec3::ZERO,
+            n: -wi,
+        };
+        Some(DeltaLightSample {
+            wi,
+            li: self.intensity / dist2,
+            dist,
+            pdf: 1.0,
+            shadow: spawn_ray_to(from, &light),
+        })
+    }
+
+    /// Power for light selection: luminance of `4 pi I`.
+    pub fn power(&self) -> f32 {
+        4.0 * PI * luminance(self.intensity).max(0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at(p: Vec3) -> SurfacePoint {
+        SurfacePoint {
+            p,
+            p_err: Vec3::ZERO,
+            n: Vec3::Y,
+        }
+    }
+
+    #[test]
+    fn radiance_falls_off_as_inverse_square_exactly() {
+        let i = Vec3::new(10.0, 20.0, 30.0);
+        let light = PointLight::new(Vec3::new(3.0, 4.0, 0.0), i);
+        let s = light.sample_li(&at(Vec3::ZERO)).unwrap();
+        // r^2 = 25 exactly in f32
+        assert_eq!(s.li, i / 25.0);
+        assert_eq!(s.dist, 5.0);
+        assert_eq!(s.wi, Vec3::new(0.6, 0.8, 0.0));
+        assert_eq!(s.pdf, 1.0);
+        // any point: I / |p_light - p|^2, the same f32 operations
+        for p in [Vec3::new(0.1, -2.0, 7.0), Vec3::new(1e3, 1e-3, -5.0)] {
+            let s = light.sample_li(&at(p)).unwrap();
+            let r2 = (light.position - p).length_squared();
+            assert_eq!(s.li, i / r2);
+            assert!((s.dist - r2.sqrt()).abs() <= f32::EPSILON * s.dist);
+            assert!((s.wi.length() - 1.0).abs() < 1e-6);
+            // the shadow ray runs towards the light and stops short of it
+            let sh = s.shadow;
+            assert!((sh.d - s.wi).length() < 1e-5);
+            assert!(sh.t_max < s.dist && sh.t_max > 0.99 * s.dist);
+        }
+        assert!(light.sample_li(&at(light.position)).is_none());
+    }
+
+    #[test]
+    fn power_is_four_pi_intensity() {
+        let light = PointLight::new(Vec3::ZERO, Vec3::splat(2.0));
+        assert!((light.power() - 8.0 * PI).abs() < 1e-5);
+    }
+}

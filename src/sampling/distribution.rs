@@ -1,0 +1,357 @@
+//! Piecewise-constant densities on `[0, 1)` and `[0, 1)^2`, sampled by exact
+//! inversion of their cumulative distribution (pbrt-v4 section A.5,
+//! `PiecewiseConstant1D` and `PiecewiseConstant2D`).
+//!
+//! A 1D function given by `n` non-negative cell values is the density
+//! `p(x) = f[i] / I` on cell `i = floor(x n)`, where `I = sum f / n` is its
+//! integral. Sampling finds the cell whose cumulative range holds `u` and
+//! inverts linearly inside it, so `x` is a continuous point, not a cell index.
+//! The 2D density is the product of a marginal over rows (each row weighted by
+//! its integral) and the 1D conditional of the chosen row.
+//!
+//! Guarantees:
+//! - a cell of value zero (or a row of integral zero) is never sampled, for any
+//!   `u` in `[0, 1]`, including the extremes 0 and 1;
+//! - the sampled point lies in `[0, 1)` and inside the chosen cell, so
+//!   `pdf(sample.x)` returns exactly the density that `sample` reported;
+//! - negative, NaN and infinite cell values count as zero;
+//! - all-zero input falls back to the uniform density (pdf 1 everywhere), as
+//!   pbrt-v4 does, so a caller never divides by a zero integral; callers that
+//!   must not sample such a function check [`PiecewiseConstant1D::integral`].
+//!
+//! The cumulative sums are kept in `f64`, so a large map's table loses no cell
+//! to rounding; the resolution of a draw is still that of its `f32` number `u`
+//! (24 bits), so a cell whose probability is far below 2^-24 is rarely or
+//! never reached, though its density is positive (a bias of that order).
+
+use crate::math::Vec2;
+
+/// A piecewise-constant density on `[0, 1)` with `n` equal cells.
+#[derive(Debug, Clone)]
+pub struct PiecewiseConstant1D {
+    /// Cell values (non-negative, finite).
+    func: Vec<f32>,
+    /// `cdf[i]` is the integral of the function over `[0, i / n)`, not
+    /// normalised; `cdf[n]` is the integral. For all-zero input, `i / n`.
+    cdf: Vec<f64>,
+    /// Integral of the function over `[0, 1)` (0 for all-zero input).
+    integral: f64,
+}
+
+/// One draw from a [`PiecewiseConstant1D`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample1D {
+    /// The point, in `[0, 1)`.
+    pub x: f32,
+    /// Its density, `> 0`.
+    pub pdf: f32,
+    /// The cell it lies in: `floor(x n)`.
+    pub cell: usize,
+}
+
+/// One draw from a [`PiecewiseConstant2D`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample2D {
+    /// The point, in `[0, 1)^2`; `x` runs along a row, `y` across rows.
+    pub p: Vec2,
+    /// Its density with respect to area on the unit square, `> 0`.
+    pub pdf: f32,
+    /// The cell it lies in: `[column, row]`.
+    pub cell: [usize; 2],
+}
+
+impl PiecewiseConstant1D {
+    /// The density proportional to the cell values `func` (at least one cell).
+    ///
+    /// # Panics
+    /// If `func` is empty: a distribution needs a domain.
+    pub fn new(func: &[f32]) -> Self {
+        assert!(
+            !func.is_empty(),
+            "a piecewise-constant function needs a cell"
+        );
+        let func: Vec<f32> = func
+            .iter()
+            .map(|&f| if f.is_finite() && f > 0.0 { f } else { 0.0 })
+            .collect();
+        let weights: Vec<f64> = func.iter().map(|&f| f as f64).collect();
+        Self::with_weights(func, &weights)
+    }
+
+    /// The distribution over cells with values `func` (already non-negative)
+    /// whose cumulative table is built from `weights` (the same values, in
+    /// `f64` where the caller has them more exactly).
+    fn with_weights(func: Vec<f32>, weights: &[f64]) -> Self {
+        let n = func.len() as f64;
+        let mut cdf = Vec::with_capacity(func.len() + 1);
+        cdf.push(0.0);
+        let mut acc = 0.0f64;
+        for &w in weights {
+            acc += w / n;
+            cdf.push(acc);
+        }
+        let integral = acc;
+        if !(integral > 0.0) {
+            // all zero: uniform
+            for (i, c) in cdf.iter_mut().enumerate() {
+                *c = i as f64 / n;
+            }
+        }
+        PiecewiseConstant1D {
+            func,
+            cdf,
+            integral,
+        }
+    }
+
+    /// Number of cells.
+    pub fn len(&self) -> usize {
+        self.func.len()
+    }
+
+    /// Always false: a distribution has at least one cell.
+    pub fn is_empty(&self) -> bool {
+        self.func.is_empty()
+    }
+
+    /// Integral of the function over `[0, 1)`: the mean cell value. Zero means
+    /// the all-zero input, sampled uniformly.
+    pub fn integral(&self) -> f64 {
+        self.integral
+    }
+
+    /// The cell values (after negative and non-finite ones were zeroed).
+    pub fn func(&self) -> &[f32] {
+        &self.func
+    }
+
+    /// The cell holding `x` (points outside `[0, 1)` are clamped to the first
+    /// or last cell).
+    #[inline]
+    pub fn cell_of(&self, x: f32) -> usize {
+        // x has 24 significant bits and n < 2^29, so the product is exact
+        let i = (x as f64 * self.func.len() as f64).floor();
+        if i > 0.0 {
+            (i as usize).min(self.func.len() - 1)
+        } else {
+            0
+        }
+    }
+
+    /// Density of cell `i`.
+    #[inline]
+    pub fn pdf_cell(&self, i: usize) -> f32 {
+        if self.integral > 0.0 {
+            (self.func[i] as f64 / self.integral) as f32
+        } else {
+            1.0
+        }
+    }
+
+    /// Density at `x`.
+    #[inline]
+    pub fn pdf(&self, x: f32) -> f32 {
+        self.pdf_cell(self.cell_of(x))
+    }
+
+    /// The point whose cumulative probability is `u` (clamped to `[0, 1]`).
+    pub fn sample(&self, u: f32) -> Sample1D {
+        let n = self.func.len();
+        let total = self.cdf[n];
+        let target = (u as f64).clamp(0.0, 1.0) * total;
+        // the first cell whose upper cumulative bound exceeds the target has
+        // `cdf[i] <= target < cdf[i + 1]`, so it has positive probability
+        let mut i = self.cdf[1..].partition_point(|&c| c <= target);
+        if i >= n {
+            // u == 1: the last cell with positive probability, at its top
+            i = self.cdf[1..].partition_point(|&c| c < total);
+        }
+        let (lo, hi) = (self.cdf[i], self.cdf[i + 1]);
+        let du = ((target - lo) / (hi - lo)).clamp(0.0, 1.0);
+        let mut x = ((i as f64 + du) / n as f64) as f32;
+        // Rounding to f32 can carry x onto a cell boundary: keep it in cell
+        // i (and below 1), so that `pdf(x)` is the density reported here.
+        while self.cell_of(x) > i || x >= 1.0 {
+            x = crate::math::next_float_down(x);
+        }
+        while self.cell_of(x) < i {
+            x = crate::math::next_float_up(x);
+        }
+        Sample1D {
+            x,
+            pdf: self.pdf_cell(i),
+            cell: i,
+        }
+    }
+}
+
+/// A piecewise-constant density on `[0, 1)^2` over a grid of `nx` columns by
+/// `ny` rows: the marginal density picks a row `y`, the row's conditional
+/// density picks `x`.
+#[derive(Debug, Clone)]
+pub struct PiecewiseConstant2D {
+    /// One conditional per row.
+    rows: Vec<PiecewiseConstant1D>,
+    /// Over rows, weighted by each row's integral.
+    marginal: PiecewiseConstant1D,
+}
+
+impl PiecewiseConstant2D {
+    /// The density proportional to `func`, `nx` values per row, `ny` rows,
+    /// row-major (row 0 first; it covers `y` in `[0, 1 / ny)`).
+    ///
+    /// # Panics
+    /// If `nx` or `ny` is 0 or `func.len() != nx * ny`.
+    pub fn new(func: &[f32], nx: usize, ny: usize) -> Self {
+        assert!(nx > 0 && ny > 0, "a 2D distribution needs a cell");
+        assert_eq!(func.len(), nx * ny, "{nx} x {ny} cells");
+        let rows: Vec<PiecewiseConstant1D> = func
+            .chunks_exact(nx)
+            .map(PiecewiseConstant1D::new)
+            .collect();
+        // the marginal's table uses the rows' f64 integrals, so rows of tiny
+        // weight keep their exact share
+        let row_integrals: Vec<f64> = rows.iter().map(|r| r.integral()).collect();
+        let row_func: Vec<f32> = row_integrals.iter().map(|&w| w as f32).collect();
+        let marginal = PiecewiseConstant1D::with_weights(row_func, &row_integrals);
+        PiecewiseConstant2D { rows, marginal }
+    }
+
+    /// Number of columns and rows.
+    pub fn size(&self) -> [usize; 2] {
+        [self.rows[0].len(), self.rows.len()]
+    }
+
+    /// Integral of the function over the unit square (0 for all-zero input,
+    /// which is sampled uniformly).
+    pub fn integral(&self) -> f64 {
+        self.marginal.integral
+    }
+
+    /// Density of cell `[column, row]` with respect to area.
+    #[inline]
+    pub fn pdf_cell(&self, cell: [usize; 2]) -> f32 {
+        let total = self.marginal.integral;
+        if total > 0.0 {
+            (self.rows[cell[1]].func[cell[0]] as f64 / total) as f32
+        } else {
+            1.0
+        }
+    }
+
+    /// The cell holding `p` (clamped onto the grid).
+    #[inline]
+    pub fn cell_of(&self, p: Vec2) -> [usize; 2] {
+        [self.rows[0].cell_of(p.x), self.marginal.cell_of(p.y)]
+    }
+
+    /// Density at `p` with respect to area on the unit square.
+    #[inline]
+    pub fn pdf(&self, p: Vec2) -> f32 {
+        self.pdf_cell(self.cell_of(p))
+    }
+
+    /// The point for `u` in `[0, 1]^2`: `u.y` picks the row, `u.x` the point
+    /// along it.
+    pub fn sample(&self, u: Vec2) -> Sample2D {
+        let y = self.marginal.sample(u.y);
+        let x = self.rows[y.cell].sample(u.x);
+        let cell = [x.cell, y.cell];
+        Sample2D {
+            p: Vec2::new(x.x, y.x),
+            pdf: self.pdf_cell(cell),
+            cell,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampler::Sampler;
+
+    /// 0, the smallest subnormal 2^-149, 0.5, the largest f32 below 1, and 1.
+    const EXTREMES: [f32; 5] = [0.0, 1.4e-45, 0.5, 1.0 - 5.96e-8, 1.0];
+
+    #[test]
+    fn one_d_inverts_its_cdf_exactly() {
+        let d = PiecewiseConstant1D::new(&[1.0, 0.0, 3.0, 0.0]);
+        assert_eq!(d.integral(), 1.0);
+        // cdf: [0, 0.25, 0.25, 1.0, 1.0]
+        let s = d.sample(0.125);
+        assert_eq!((s.x, s.pdf, s.cell), (0.125, 1.0, 0));
+        let s = d.sample(0.25);
+        assert_eq!((s.x, s.cell), (0.5, 2));
+        let s = d.sample(0.625);
+        assert_eq!((s.x, s.pdf, s.cell), (0.625, 3.0, 2));
+        assert_eq!(d.pdf(0.3), 0.0);
+        assert_eq!(d.pdf(0.74), 3.0);
+    }
+
+    #[test]
+    fn zero_cells_are_never_sampled_even_at_the_extremes() {
+        let d = PiecewiseConstant1D::new(&[0.0, 2.0, 0.0, 0.0, 5.0, 0.0]);
+        for &u in &EXTREMES {
+            let s = d.sample(u);
+            assert!(s.cell == 1 || s.cell == 4, "u={u} chose cell {}", s.cell);
+            assert!((0.0..1.0).contains(&s.x) && s.pdf > 0.0);
+            assert_eq!(d.pdf(s.x), s.pdf, "u={u}");
+            assert_eq!(d.cell_of(s.x), s.cell);
+        }
+        let mut r = Sampler::new(3, 0, 0);
+        for _ in 0..100_000 {
+            let s = d.sample(r.next_1d());
+            assert!(s.cell == 1 || s.cell == 4);
+            assert_eq!(d.pdf(s.x), s.pdf);
+        }
+    }
+
+    #[test]
+    fn all_zero_and_bad_values_fall_back_to_uniform() {
+        let d = PiecewiseConstant1D::new(&[0.0, f32::NAN, -1.0, f32::INFINITY]);
+        assert_eq!(d.integral(), 0.0);
+        for &u in &EXTREMES {
+            let s = d.sample(u);
+            assert_eq!(s.pdf, 1.0);
+            assert!((0.0..1.0).contains(&s.x));
+            assert!(
+                (s.x - u).abs() <= 6e-8,
+                "uniform: x = u, got {} for {u}",
+                s.x
+            );
+        }
+        let d2 = PiecewiseConstant2D::new(&[0.0; 6], 3, 2);
+        assert_eq!(d2.integral(), 0.0);
+        let s = d2.sample(Vec2::new(0.7, 0.2));
+        assert_eq!(s.pdf, 1.0);
+        assert!((s.p - Vec2::new(0.7, 0.2)).length() < 1e-6);
+        assert_eq!(d2.pdf(Vec2::new(0.1, 0.9)), 1.0);
+    }
+
+    #[test]
+    fn two_d_skips_zero_rows_and_cells() {
+        // row 1 is all zero; column 0 of row 0 is zero
+        let f = [0.0, 1.0, 2.0, 0.0, 0.0, 0.0, 4.0, 0.0, 1.0];
+        let d = PiecewiseConstant2D::new(&f, 3, 3);
+        let integral: f64 = f.iter().map(|&v| v as f64).sum::<f64>() / 9.0;
+        assert!((d.integral() - integral).abs() < 1e-15);
+        let mut points = Vec::new();
+        for &a in &EXTREMES {
+            for &b in &EXTREMES {
+                points.push(Vec2::new(a, b));
+            }
+        }
+        let mut r = Sampler::new(4, 0, 0);
+        points.extend((0..100_000).map(|_| r.next_2d()));
+        for u in points {
+            let s = d.sample(u);
+            let [cx, cy] = s.cell;
+            assert!(f[cy * 3 + cx] > 0.0, "{u:?} chose zero cell {:?}", s.cell);
+            assert!(s.p.x >= 0.0 && s.p.x < 1.0 && s.p.y >= 0.0 && s.p.y < 1.0);
+            assert_eq!(d.cell_of(s.p), s.cell);
+            assert_eq!(d.pdf(s.p), s.pdf);
+            let expect = (f[cy * 3 + cx] as f64 / integral) as f32;
+            assert!((s.pdf - expect).abs() <= 1e-6 * expect);
+        }
+    }
+}

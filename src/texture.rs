@@ -1,0 +1,264 @@
+//! RGB image textures: loading, colour decoding and filtered lookup.
+//!
+//! Files: PNG (8 or 16 bits per channel, grey or colour; alpha is ignored) is
+//! taken to be sRGB-encoded and decoded to linear RGB with the exact sRGB
+//! transfer function (IEC 61966-2-1: `c / 12.92` up to 0.04045, else
+//! `((c + 0.055) / 1.055)^2.4`). OpenEXR is linear already and is read as it
+//! is (the R, G and B channels of its first layer). The format is chosen by the
+//! file's extension; anything else is an error, as are files that do not
+//! decode, images of zero size, and texels that are not finite or negative.
+//!
+//! Coordinates (pbrt-v4 section 10.4, `ImageTexture`, which flips `t` the same
+//! way): `(u, v)` is a texture coordinate as OBJ files store it, `v` pointing
+//! up, while an image stores its top row first. So `u = 0` is the left edge of
+//! the image, `v = 0` its bottom edge and `v = 1` its top edge: texel `(x, y)`
+//! (row `y = 0` at the top) has its centre at `((x + 0.5) / w, 1 - (y + 0.5) / h)`.
+//! Lookup is bilinear between the four nearest texel centres, with wrap
+//! (repeat) addressing in both `u` and `v`, so a texture tiles the plane.
+
+use crate::error::{Error, Result};
+use crate::math::{Vec2, Vec3};
+use std::path::Path;
+
+/// The exact sRGB electro-optical transfer function: encoded value in
+/// `[0, 1]` to linear.
+pub fn srgb_to_linear(c: f64) -> f64 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// A linear-RGB image, row 0 at the top.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ImageTexture {
+    width: u32,
+    height: u32,
+    texels: Vec<Vec3>,
+}
+
+impl ImageTexture {
+    /// Load a texture from a `.png` (sRGB) or `.exr` (linear) file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        let (width, height, rgb) = match ext.as_deref() {
+            Some("png") => read_png(path)?,
+            Some("exr") => crate::film::read_exr(path)?,
+            _ => {
+                return Err(Error::input(
+                    path,
+                    None,
+                    "unsupported texture format: expected a .png (sRGB) or .exr (linear) image",
+                ));
+            }
+        };
+        Self::from_linear_rgb(width, height, rgb).map_err(|e| match e {
+            Error::Settings(message) => Error::input(path, None, message),
+            other => other,
+        })
+    }
+
+    /// A texture from linear RGB values, 3 per texel, row-major with the top
+    /// row first.
+    pub fn from_linear_rgb(width: u32, height: u32, rgb: Vec<f32>) -> Result<Self> {
+        if width == 0 || height == 0 {
+            return Err(Error::Settings(format!(
+                "the image is {width} x {height} texels: expected at least one"
+            )));
+        }
+        let n = width as usize * height as usize;
+        if rgb.len() != 3 * n {
+            return Err(Error::Settings(format!(
+                "{} values for {width} x {height} RGB texels: expected {}",
+                rgb.len(),
+                3 * n
+            )));
+        }
+        let mut texels = Vec::with_capacity(n);
+        for (i, c) in rgb.chunks_exact(3).enumerate() {
+            let t = Vec3::new(c[0], c[1], c[2]);
+            if !t.is_finite() || t.min_element() < 0.0 {
+                let (x, y) = (i % width as usize, i / width as usize);
+                return Err(Error::Settings(format!(
+                    "texel ({x}, {y}) is ({}, {}, {}): expected finite values >= 0",
+                    c[0], c[1], c[2]
+                )));
+            }
+            texels.push(t);
+        }
+        Ok(ImageTexture {
+            width,
+            height,
+            texels,
+        })
+    }
+
+    /// Width in texels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height in texels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// The texels, row-major, top row first.
+    pub fn texels(&self) -> &[Vec3] {
+        &self.texels
+    }
+
+    /// Texel `(x, y)`, row 0 at the top.
+    ///
+    /// # Panics
+    /// If `x >= width` or `y >= height`.
+    #[inline]
+    pub fn texel(&self, x: u32, y: u32) -> Vec3 {
+        assert!(
+            x < self.width && y < self.height,
+            "texel ({x}, {y}) outside"
+        );
+        self.texels[y as usize * self.width as usize + x as usize]
+    }
+
+    /// Texel `(x, y)` with both indices wrapped onto the image.
+    #[inline]
+    pub fn texel_wrapped(&self, x: i64, y: i64) -> Vec3 {
+        let x = x.rem_euclid(self.width as i64) as usize;
+        let y = y.rem_euclid(self.height as i64) as usize;
+        self.texels[y * self.width as usize + x]
+    }
+
+    /// The colour at texture coordinate `uv` (`v` up), bilinear with wrap
+    /// addressing. A non-finite coordinate gives black.
+    pub fn eval(&self, uv: Vec2) -> Vec3 {
+        if !uv.is_finite() {
+            return Vec3::ZERO;
+        }
+        // continuous texel coordinates, texel centres at integers
+        let s = uv.x as f64 * self.width as f64 - 0.5;
+        let t = (1.0 - uv.y as f64) * self.height as f64 - 0.5;
+        let (x0, y0) = (s.floor(), t.floor());
+        let (fx, fy) = ((s - x0) as f32, (t - y0) as f32);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let a = self.texel_wrapped(x0, y0);
+        let b = self.texel_wrapped(x0 + 1, y0);
+        let c = self.texel_wrapped(x0, y0 + 1);
+        let d = self.texel_wrapped(x0 + 1, y0 + 1);
+        (1.0 - fy) * ((1.0 - fx) * a + fx * b) + fy * ((1.0 - fx) * c + fx * d)
+    }
+}
+
+/// Decodes a PNG to linear RGB: `(width, height, rgb)`, top row first.
+fn read_png(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
+    let mut reader = image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
+    reader.set_format(image::ImageFormat::Png);
+    let img = reader.decode().map_err(|e| match e {
+        image::ImageError::IoError(e) => Error::io(path, e),
+        other => Error::input(path, None, format!("not a readable PNG file: {other}")),
+    })?;
+    // 8-bit values v become 257 v exactly, so one 16-bit table serves both
+    let img = img.into_rgb16();
+    let lut: Vec<f32> = (0..=u16::MAX)
+        .map(|v| srgb_to_linear(v as f64 / u16::MAX as f64) as f32)
+        .collect();
+    let rgb = img.as_raw().iter().map(|&v| lut[v as usize]).collect();
+    Ok((img.width(), img.height(), rgb))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn checker() -> ImageTexture {
+        // 2 x 2: top row red, green; bottom row blue, white
+        ImageTexture::from_linear_rgb(2, 2, vec![1., 0., 0., 0., 1., 0., 0., 0., 1., 1., 1., 1.])
+            .unwrap()
+    }
+
+    #[test]
+    fn srgb_transfer_function_matches_the_standard() {
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert_eq!(srgb_to_linear(1.0), 1.0);
+        // 0.04045 / 12.92 on the linear segment
+        assert!((srgb_to_linear(0.04045) - 0.003130804953560371).abs() < 1e-15);
+        // the two pieces meet there to 1e-8 (they are not exactly continuous)
+        assert!((srgb_to_linear(0.04045 + 1e-12) - 0.0031308).abs() < 1e-7);
+        // 8-bit 128: ((128/255 + 0.055) / 1.055)^2.4 = 0.2158605
+        assert!((srgb_to_linear(128.0 / 255.0) - 0.21586050011389923).abs() < 1e-12);
+    }
+
+    #[test]
+    fn texel_centres_return_texels_and_v_points_up() {
+        let t = checker();
+        let at = |u: f32, v: f32| t.eval(Vec2::new(u, v));
+        // top-left texel centre: u = 0.25, v = 0.75
+        assert_eq!(at(0.25, 0.75), Vec3::new(1., 0., 0.));
+        assert_eq!(at(0.75, 0.75), Vec3::new(0., 1., 0.));
+        assert_eq!(at(0.25, 0.25), Vec3::new(0., 0., 1.));
+        assert_eq!(at(0.75, 0.25), Vec3::new(1., 1., 1.));
+        // halfway between red and green
+        assert_eq!(at(0.5, 0.75), Vec3::new(0.5, 0.5, 0.));
+        // wrap: u = 0 is halfway between the right and the left column
+        assert_eq!(at(0.0, 0.75), Vec3::new(0.5, 0.5, 0.));
+        // repeat: shifting by whole periods changes nothing
+        assert_eq!(at(0.25 + 3.0, 0.75 - 2.0), Vec3::new(1., 0., 0.));
+        assert_eq!(at(f32::NAN, 0.5), Vec3::ZERO);
+    }
+
+    #[test]
+    fn bad_sizes_and_values_are_errors() {
+        assert!(ImageTexture::from_linear_rgb(0, 1, vec![]).is_err());
+        assert!(ImageTexture::from_linear_rgb(1, 1, vec![1.0, 2.0]).is_err());
+        let e = ImageTexture::from_linear_rgb(2, 1, vec![1., 1., 1., 0., f32::NAN, 0.])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("texel (1, 0)"), "{e}");
+        assert!(ImageTexture::from_linear_rgb(1, 1, vec![-1., 0., 0.]).is_err());
+    }
+
+    #[test]
+    fn png_is_decoded_from_srgb() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.png");
+        // 2 x 1, 8-bit: (0, 128, 255) and (255, 64, 0)
+        let img = image::RgbImage::from_raw(2, 1, vec![0, 128, 255, 255, 64, 0]).unwrap();
+        img.save(&path).unwrap();
+        let t = ImageTexture::load(&path).unwrap();
+        assert_eq!((t.width(), t.height()), (2, 1));
+        let lin = |v: u8| srgb_to_linear(v as f64 / 255.0) as f32;
+        assert_eq!(t.texel(0, 0), Vec3::new(0.0, lin(128), 1.0));
+        assert_eq!(t.texel(1, 0), Vec3::new(1.0, lin(64), 0.0));
+        // 16-bit grey
+        let path16 = dir.path().join("g.png");
+        let g = image::ImageBuffer::<image::Luma<u16>, _>::from_raw(1, 1, vec![30000u16]).unwrap();
+        g.save(&path16).unwrap();
+        let t = ImageTexture::load(&path16).unwrap();
+        let v = srgb_to_linear(30000.0 / 65535.0) as f32;
+        assert_eq!(t.texel(0, 0), Vec3::splat(v));
+    }
+
+    #[test]
+    fn load_errors_name_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let missing = dir.path().join("missing.png");
+        let e = ImageTexture::load(&missing).unwrap_err().to_string();
+        assert!(e.contains("missing.png") && !e.contains('\n'), "{e}");
+        let jpg = dir.path().join("photo.jpg");
+        std::fs::write(&jpg, b"not really").unwrap();
+        let e = ImageTexture::load(&jpg).unwrap_err().to_string();
+        assert!(e.contains("photo.jpg") && e.contains("unsupported"), "{e}");
+        let bad = dir.path().join("bad.png");
+        std::fs::write(&bad, b"\x89PNG\r\n\x1a\n truncated").unwrap();
+        let e = ImageTexture::load(&bad).unwrap_err().to_string();
+        assert!(e.contains("bad.png") && !e.contains('\n'), "{e}");
+        let bad_exr = dir.path().join("bad.exr");
+        std::fs::write(&bad_exr, b"v/1\x01 nope").unwrap();
+        let e = ImageTexture::load(&bad_exr).unwrap_err().to_string();
+        assert!(e.contains("bad.exr") && !e.contains('\n'), "{e}");
+    }
+}

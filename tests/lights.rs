@@ -1,0 +1,286 @@
+//! The light building blocks on their own: the environment map against
+//! Mitsuba 3's values, chi-square fits of the 2D distribution and of the
+//! environment's direction sampling (hard case 12), and irradiance furnaces
+//! for constant and image environments (hard case 23's estimator without the
+//! geometry).
+
+mod common;
+
+use common::{batch_means, chi2_test};
+use embertrace::light::EnvironmentMap;
+use embertrace::light::envmap::{direction_to_uv, uv_to_direction};
+use embertrace::math::{Vec2, Vec3};
+use embertrace::sampler::Sampler;
+use embertrace::sampling::PiecewiseConstant2D;
+use embertrace::texture::ImageTexture;
+use std::f64::consts::PI;
+use std::path::PathBuf;
+
+/// Chi-square tests in this file, for the Sidak correction.
+const CHI2_TESTS: usize = 2;
+const N: usize = 1_000_000;
+
+fn data(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+}
+
+fn map(w: u32, h: u32, f: impl Fn(u32, u32) -> Vec3) -> ImageTexture {
+    let mut rgb = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            rgb.extend(f(x, y).to_array());
+        }
+    }
+    ImageTexture::from_linear_rgb(w, h, rgb).unwrap()
+}
+
+/// A map with a bright spot (400x the rest), colour gradients and black
+/// bottom rows.
+fn lumpy() -> EnvironmentMap {
+    let m = map(32, 17, |x, y| {
+        if y >= 13 {
+            Vec3::ZERO
+        } else if (x == 9 || x == 10) && y == 4 {
+            Vec3::new(200.0, 150.0, 100.0)
+        } else {
+            Vec3::new(
+                0.2 + 0.03 * x as f32,
+                0.5 + 0.2 * ((x as f32) * 0.7).sin(),
+                0.1 + 0.05 * y as f32,
+            )
+        }
+    });
+    EnvironmentMap::new(m, Vec3::new(1.0, 0.8, 1.5)).unwrap()
+}
+
+/// Mitsuba 3.9.1's `envmap` emitter (scalar_rgb) evaluated along 64
+/// directions on a 16 x 8 synthetic map; see
+/// `scripts/mitsuba_envmap_reference.py`.
+#[test]
+fn environment_lookup_matches_mitsuba() {
+    let text = std::fs::read_to_string(data("mitsuba_envmap.json")).unwrap();
+    let doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let env = EnvironmentMap::load(&data("mitsuba_envmap.exr"), Vec3::ONE).unwrap();
+    let (w, h) = (
+        doc["width"].as_u64().unwrap(),
+        doc["height"].as_u64().unwrap(),
+    );
+    assert_eq!(
+        (env.map().width() as u64, env.map().height() as u64),
+        (w, h)
+    );
+    // the EXR Mitsuba wrote reads back as the pixels it was given, exactly
+    let pixels: Vec<f32> = doc["pixels_rgb_top_row_first"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap() as f32)
+        .collect();
+    let ours: Vec<f32> = env
+        .map()
+        .texels()
+        .iter()
+        .flat_map(|t| t.to_array())
+        .collect();
+    assert_eq!(ours, pixels);
+
+    let vec3 = |v: &serde_json::Value| {
+        let a: Vec<f32> = v
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap() as f32)
+            .collect();
+        Vec3::new(a[0], a[1], a[2])
+    };
+    let samples = doc["samples"].as_array().unwrap();
+    assert_eq!(samples.len(), 64);
+    let mut worst = 0.0f32;
+    for s in samples {
+        let d = vec3(&s["d"]);
+        let theirs = vec3(&s["radiance"]);
+        let ours = env.eval(d);
+        let err = ((ours - theirs).abs() / theirs.max(Vec3::ONE)).max_element();
+        worst = worst.max(err);
+        // Both evaluate atan2 and acos in f32, with different
+        // implementations (libm vs Dr.Jit): a few ulps in (u, v) move the
+        // bilinear weights by ~1e-6 of texel differences of ~4.
+        assert!(err < 2e-5, "d = {d:?}: ours {ours:?}, Mitsuba {theirs:?}");
+    }
+    eprintln!("largest relative difference from Mitsuba: {worst:e}");
+}
+
+#[test]
+fn chi2_piecewise_constant_2d() {
+    // 12 x 7 cells: row 2 all zero, some zero cells, values spanning 1e3
+    let (nx, ny) = (12usize, 7usize);
+    let f: Vec<f32> = (0..nx * ny)
+        .map(|k| {
+            let (x, y) = (k % nx, k / nx);
+            if y == 2 || (x + 2 * y) % 5 == 0 {
+                0.0
+            } else {
+                0.1 * (1 + (x * 7 + y * 3) % 11) as f32 * if x == 4 { 100.0 } else { 1.0 }
+            }
+        })
+        .collect();
+    let d = PiecewiseConstant2D::new(&f, nx, ny);
+    let total: f64 = f.iter().map(|&v| v as f64).sum();
+    // each cell split 3 x 3, so uniformity inside a cell is tested too
+    let (bx, by) = (3 * nx, 3 * ny);
+    let mut obs = vec![0.0; bx * by];
+    let mut s = Sampler::new(41, 0, 0);
+    for _ in 0..N {
+        let x = d.sample(s.next_2d());
+        let i = ((x.p.x as f64 * bx as f64) as usize).min(bx - 1);
+        let j = ((x.p.y as f64 * by as f64) as usize).min(by - 1);
+        obs[j * bx + i] += 1.0;
+    }
+    let exp: Vec<f64> = (0..bx * by)
+        .map(|k| {
+            let (i, j) = (k % bx, k / bx);
+            f[(j / 3) * nx + i / 3] as f64 / total / 9.0 * N as f64
+        })
+        .collect();
+    chi2_test("piecewise-constant 2D", &obs, &exp, CHI2_TESTS);
+}
+
+/// Directions binned over (cos theta, phi), 100 x 200 cells, phi measured
+/// from the map's seam shifted by half a texel (so the bins in u start where
+/// the sampling patches do). Each bin's expected count is the exact integral
+/// of the piecewise-constant `pdf_uv` over it: a bin in (cos theta, phi) is a
+/// rectangle in (u, v).
+#[test]
+fn chi2_environment_directions() {
+    let env = lumpy();
+    let (w, h) = (env.map().width() as usize, env.map().height() as usize);
+    let (nc, np) = (100usize, 200usize);
+    let shift = 0.5 / w as f64;
+    let mut obs = vec![0.0; nc * np];
+    let mut s = Sampler::new(42, 0, 0);
+    for _ in 0..N {
+        let Some(x) = env.sample(s.next_2d()) else {
+            continue;
+        };
+        let uv = direction_to_uv(x.wi);
+        let sx = (uv.x as f64 - shift).rem_euclid(1.0);
+        let c = (x.wi.y as f64 + 1.0) / 2.0;
+        let i = ((c * nc as f64) as usize).min(nc - 1);
+        let j = ((sx * np as f64) as usize).min(np - 1);
+        obs[i * np + j] += 1.0;
+    }
+    // pdf_uv of each patch, read through the public pdf at its centre
+    let (px, py) = (w, h - 1);
+    let mut pdf_uv = vec![0.0f64; px * py];
+    for r in 0..py {
+        for k in 0..px {
+            let u = ((k as f64 + 0.5) / px as f64 + shift).rem_euclid(1.0);
+            let v = (r as f64 + 0.5) / py as f64;
+            let d = uv_to_direction(Vec2::new(u as f32, v as f32));
+            let sin_t = ((d.x * d.x + d.z * d.z) as f64).sqrt();
+            pdf_uv[r * px + k] = env.pdf(d) as f64 * 2.0 * PI * PI * sin_t;
+        }
+    }
+    let overlap = |a0: f64, a1: f64, b0: f64, b1: f64| (a1.min(b1) - a0.max(b0)).max(0.0);
+    let mut exp = vec![0.0; nc * np];
+    for i in 0..nc {
+        // cos theta in [c0, c1] is v in [acos(c1) / pi, acos(c0) / pi]
+        let c0 = 2.0 * i as f64 / nc as f64 - 1.0;
+        let c1 = 2.0 * (i + 1) as f64 / nc as f64 - 1.0;
+        let (v0, v1) = (c1.acos() / PI, c0.acos() / PI);
+        for j in 0..np {
+            let (s0, s1) = (j as f64 / np as f64, (j + 1) as f64 / np as f64);
+            let mut mass = 0.0;
+            for r in 0..py {
+                let ov = overlap(v0, v1, r as f64 / py as f64, (r + 1) as f64 / py as f64);
+                if ov == 0.0 {
+                    continue;
+                }
+                for k in 0..px {
+                    let os = overlap(s0, s1, k as f64 / px as f64, (k + 1) as f64 / px as f64);
+                    mass += pdf_uv[r * px + k] * ov * os;
+                }
+            }
+            exp[i * np + j] = mass * N as f64;
+        }
+    }
+    // the expected counts sum to N: the pdf is normalised (f32 pdfs: 1e-5)
+    let sum: f64 = exp.iter().sum();
+    assert!(
+        (sum / N as f64 - 1.0).abs() < 1e-5,
+        "expected counts sum to {sum}"
+    );
+    chi2_test("environment map directions", &obs, &exp, CHI2_TESTS);
+}
+
+/// Irradiance at an upward normal (+y) by sampling the environment:
+/// `E = mean(L(wi) max(0, wi.y) / pdf(wi))`, per channel, with batch means.
+fn irradiance_estimate(env: &EnvironmentMap, seed: u64) -> [common::BatchStats; 3] {
+    let mut samples = Vec::with_capacity(N);
+    let mut s = Sampler::new(seed, 0, 0);
+    for _ in 0..N {
+        let v = match env.sample(s.next_2d()) {
+            Some(x) => x.li * x.wi.y.max(0.0) / x.pdf,
+            None => Vec3::ZERO,
+        };
+        samples.push(v.as_dvec3());
+    }
+    [0, 1, 2].map(|c| batch_means(N, 100, |i| samples[i][c]))
+}
+
+#[test]
+fn furnace_constant_environment_gives_pi_radiance() {
+    let l = Vec3::new(0.5, 1.0, 2.0);
+    let env = EnvironmentMap::new(map(8, 5, |_, _| Vec3::ONE), l).unwrap();
+    let stats = irradiance_estimate(&env, 43);
+    for (c, st) in stats.iter().enumerate() {
+        let want = PI * l[c] as f64;
+        // 5 sigma from 100 batch means (f64)
+        assert!(
+            (st.mean - want).abs() < 5.0 * st.std_err,
+            "channel {c}: {} +- {} vs {want}",
+            st.mean,
+            st.std_err
+        );
+        assert!(st.std_err < 0.01 * want, "channel {c}: too noisy to test");
+    }
+}
+
+#[test]
+fn furnace_image_environment_matches_quadrature() {
+    let env = lumpy();
+    // midpoint rule over the upper hemisphere on a grid ~60x finer than the
+    // map: the radiance is continuous and piecewise bilinear, so the error
+    // (~1e-5 relative) is far inside the Monte Carlo band
+    let (nt, np) = (1024usize, 2048usize);
+    let mut quad = [0.0f64; 3];
+    for i in 0..nt {
+        let theta = (i as f64 + 0.5) / nt as f64 * PI / 2.0;
+        let weight = theta.cos() * theta.sin() * (PI / 2.0 / nt as f64) * (2.0 * PI / np as f64);
+        for j in 0..np {
+            let u = (j as f64 + 0.5) / np as f64;
+            let d = uv_to_direction(Vec2::new(u as f32, (theta / PI) as f32));
+            let l = env.eval(d).as_dvec3();
+            for c in 0..3 {
+                quad[c] += l[c] * weight;
+            }
+        }
+    }
+    let stats = irradiance_estimate(&env, 44);
+    for (c, st) in stats.iter().enumerate() {
+        // 5 sigma from 100 batch means (f64)
+        assert!(
+            (st.mean - quad[c]).abs() < 5.0 * st.std_err,
+            "channel {c}: {} +- {} vs quadrature {}",
+            st.mean,
+            st.std_err,
+            quad[c]
+        );
+        assert!(
+            st.std_err < 0.01 * quad[c],
+            "channel {c}: too noisy to test"
+        );
+    }
+}
