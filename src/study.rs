@@ -444,7 +444,7 @@ fn write_outputs(
     for r in rows {
         let _ = writeln!(
             csv,
-            "\"{}\",{:.6},{},{},{:.6e},{:.6e},{:.6e},{}",
+            "\"{}\",{:.6e},{},{},{:.6e},{:.6e},{:.6e},{}",
             r.label, r.seconds, r.spp, r.rays, r.rmse, r.rel_mse, r.efficiency, r.pareto
         );
     }
