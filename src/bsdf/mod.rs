@@ -9,6 +9,7 @@
 //!   sample with zero pdf.
 
 mod diffuse;
+pub mod fresnel;
 
 pub use diffuse::Diffuse;
 
