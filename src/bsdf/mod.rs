@@ -10,6 +10,7 @@
 
 mod diffuse;
 pub mod fresnel;
+pub mod microfacet;
 
 pub use diffuse::Diffuse;
 
