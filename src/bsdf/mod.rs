@@ -1,35 +1,96 @@
-//! BSDFs, evaluated in a local shading frame whose +z axis is the normal
-//! turned towards `wo`. Conventions (as pbrt-v4's `BxDF`, chapter 9):
+//! BSDFs, evaluated in a local shading frame. Conventions (as pbrt-v4's
+//! `BxDF`, chapter 9):
 //!
 //! - `wo` and `wi` both point away from the surface.
+//! - The frame's +z axis is the normal turned towards `wo` for the reflective
+//!   BSDFs ([`Diffuse`], [`Mirror`], [`Conductor`], [`Plastic`]: they see
+//!   `wo.z > 0` and return zero or `None` otherwise). A BSDF that transmits
+//!   ([`Glass`], see [`Bxdf::has_transmission`]) needs to know which side is
+//!   inside: its +z is the surface's outward normal and `wo.z < 0` means `wo`
+//!   is inside.
 //! - `eval` returns `f(wo, wi)` **without** the cosine factor; estimators
 //!   multiply by `|cos theta_i|` themselves.
-//! - `sample` returns a [`BsdfSample`] whose `pdf` equals `pdf(wo, wi)` (solid
-//!   angle) and whose `f` equals `eval(wo, wi)`; it returns `None` instead of a
-//!   sample with zero pdf.
+//! - `sample` takes two uniform numbers (BSDFs with several lobes choose with
+//!   the first and rescale it), so every BSDF consumes the sample stream the
+//!   same way. It returns a [`BsdfSample`] whose `pdf` equals `pdf(wo, wi)`
+//!   (solid angle) and whose `f` equals `eval(wo, wi)`; it returns `None`
+//!   instead of a sample with zero pdf.
+//! - **Delta lobes** (perfect specular reflection and refraction) have no
+//!   density: `eval` and `pdf` return 0 for them, always. `sample` returns
+//!   them with [`BsdfSample::delta`] set, `f` the coefficient of the Dirac
+//!   delta divided by `|cos theta_i|` and `pdf` the probability of choosing
+//!   that lobe (pbrt's convention), so [`BsdfSample::weight`] is still the
+//!   Monte Carlo weight. An estimator gives such a sample MIS weight 1 and
+//!   never light-samples through the lobe.
+//!
+//! The materials:
+//!
+//! | type | lobes | file |
+//! |---|---|---|
+//! | [`Diffuse`] | Lambertian | `diffuse.rs` |
+//! | [`Mirror`] | delta reflection | `mirror.rs` |
+//! | [`Glass`] | delta reflection + delta refraction | `glass.rs` |
+//! | [`Conductor`] | GGX or Beckmann microfacet, delta when smooth | `conductor.rs` |
+//! | [`Plastic`] | GGX or delta coat over a Lambertian base | `plastic.rs` |
+//!
+//! Each implements [`Bxdf`], so an estimator can be generic over the material
+//! types a scene uses; [`Bsdf`] is the closed sum of all of them.
 
 mod diffuse;
 pub mod fresnel;
 pub mod microfacet;
 
 pub use diffuse::Diffuse;
+pub use microfacet::{Distribution, Microfacet};
 
-use crate::math::Vec3;
+use crate::math::{Vec2, Vec3};
 
 /// A direction sampled from a BSDF.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BsdfSample {
     /// Sampled incident direction, local frame.
     pub wi: Vec3,
-    /// `f(wo, wi)`, without the cosine.
+    /// `f(wo, wi)`, without the cosine; for a delta sample, the Dirac
+    /// coefficient over `|cos theta_i|`.
     pub f: Vec3,
-    /// Solid-angle density of `wi`; always `> 0`.
+    /// Solid-angle density of `wi`, or for a delta sample the probability of
+    /// its lobe; always `> 0`.
     pub pdf: f32,
+    /// Whether `wi` came from a delta lobe (so `eval` and `pdf` are zero
+    /// there, and MIS does not apply).
+    pub delta: bool,
 }
 
 impl BsdfSample {
     /// The Monte Carlo weight `f |cos| / pdf`.
     pub fn weight(&self) -> Vec3 {
         self.f * (self.wi.z.abs() / self.pdf)
+    }
+}
+
+/// The interface every BSDF implements (see the module docs for the
+/// conventions).
+pub trait Bxdf {
+    /// `f(wo, wi)` without the cosine; zero on delta lobes.
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3;
+
+    /// Solid-angle density with which [`Bxdf::sample`] returns `wi` given
+    /// `wo`; zero on delta lobes.
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
+
+    /// A direction `wi` for `wo`, from two uniform numbers in `[0, 1)`.
+    fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample>;
+
+    /// Every lobe is a delta: `eval` and `pdf` are zero everywhere, so light
+    /// sampling is useless and MIS does not apply.
+    fn is_delta(&self) -> bool;
+
+    /// Some lobe is a delta (a sample may come back with `delta` set).
+    fn has_delta_component(&self) -> bool;
+
+    /// The BSDF transmits, so its frame's +z must be the outward normal rather
+    /// than the normal turned towards `wo`.
+    fn has_transmission(&self) -> bool {
+        false
     }
 }
