@@ -39,9 +39,11 @@
 mod diffuse;
 pub mod fresnel;
 pub mod microfacet;
+mod mirror;
 
 pub use diffuse::Diffuse;
 pub use microfacet::{Distribution, Microfacet};
+pub use mirror::Mirror;
 
 use crate::math::{Vec2, Vec3};
 
