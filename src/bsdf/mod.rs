@@ -38,10 +38,12 @@
 
 mod diffuse;
 pub mod fresnel;
+mod glass;
 pub mod microfacet;
 mod mirror;
 
 pub use diffuse::Diffuse;
+pub use glass::Glass;
 pub use microfacet::{Distribution, Microfacet};
 pub use mirror::Mirror;
 
