@@ -36,12 +36,14 @@
 //! Each implements [`Bxdf`], so an estimator can be generic over the material
 //! types a scene uses; [`Bsdf`] is the closed sum of all of them.
 
+mod conductor;
 mod diffuse;
 pub mod fresnel;
 mod glass;
 pub mod microfacet;
 mod mirror;
 
+pub use conductor::Conductor;
 pub use diffuse::Diffuse;
 pub use glass::Glass;
 pub use microfacet::{Distribution, Microfacet};
