@@ -42,12 +42,14 @@ pub mod fresnel;
 mod glass;
 pub mod microfacet;
 mod mirror;
+mod plastic;
 
 pub use conductor::Conductor;
 pub use diffuse::Diffuse;
 pub use glass::Glass;
 pub use microfacet::{Distribution, Microfacet};
 pub use mirror::Mirror;
+pub use plastic::Plastic;
 
 use crate::math::{Vec2, Vec3};
 
