@@ -102,3 +102,86 @@ pub trait Bxdf {
         false
     }
 }
+
+/// Any of the BSDFs, for code that does not specialise on the material.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Bsdf {
+    /// Lambertian.
+    Diffuse(Diffuse),
+    /// Perfect mirror.
+    Mirror(Mirror),
+    /// Smooth dielectric.
+    Glass(Glass),
+    /// Rough or smooth metal.
+    Conductor(Conductor),
+    /// Diffuse base under a dielectric coat.
+    Plastic(Plastic),
+}
+
+macro_rules! dispatch {
+    ($self:ident, $b:ident => $e:expr) => {
+        match $self {
+            Bsdf::Diffuse($b) => $e,
+            Bsdf::Mirror($b) => $e,
+            Bsdf::Glass($b) => $e,
+            Bsdf::Conductor($b) => $e,
+            Bsdf::Plastic($b) => $e,
+        }
+    };
+}
+
+impl Bxdf for Bsdf {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        dispatch!(self, b => Bxdf::eval(b, wo, wi))
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        dispatch!(self, b => Bxdf::pdf(b, wo, wi))
+    }
+
+    fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
+        dispatch!(self, b => Bxdf::sample(b, wo, u))
+    }
+
+    fn is_delta(&self) -> bool {
+        dispatch!(self, b => b.is_delta())
+    }
+
+    fn has_delta_component(&self) -> bool {
+        dispatch!(self, b => b.has_delta_component())
+    }
+
+    fn has_transmission(&self) -> bool {
+        dispatch!(self, b => b.has_transmission())
+    }
+}
+
+impl From<Diffuse> for Bsdf {
+    fn from(b: Diffuse) -> Self {
+        Bsdf::Diffuse(b)
+    }
+}
+
+impl From<Mirror> for Bsdf {
+    fn from(b: Mirror) -> Self {
+        Bsdf::Mirror(b)
+    }
+}
+
+impl From<Glass> for Bsdf {
+    fn from(b: Glass) -> Self {
+        Bsdf::Glass(b)
+    }
+}
+
+impl From<Conductor> for Bsdf {
+    fn from(b: Conductor) -> Self {
+        Bsdf::Conductor(b)
+    }
+}
+
+impl From<Plastic> for Bsdf {
+    fn from(b: Plastic) -> Self {
+        Bsdf::Plastic(b)
+    }
+}
