@@ -158,3 +158,61 @@ pub fn erfc(x: f64) -> f64 {
             .exp();
     if x >= 0.0 { r } else { 2.0 - r }
 }
+
+/// Upper `alpha` quantile of chi-square with `k` degrees of freedom
+/// (Wilson and Hilferty 1931; accurate for k in the hundreds).
+pub fn chi2_quantile(k: f64, alpha: f64) -> f64 {
+    let z = sidak_z(2.0 * alpha, 1); // one-sided
+    let a = 2.0 / (9.0 * k);
+    k * (1.0 - a + z * a.sqrt()).powi(3)
+}
+
+/// Pearson's chi-square test of `observed` counts against `expected` counts
+/// at level 0.01, Sidak-corrected over `tests_in_file` tests. Cells with
+/// expected count below 5 are pooled into one; a sample in a cell of zero
+/// expected count fails at once. Returns the statistic and its critical
+/// value.
+pub fn chi2_test(
+    tests_in_file: usize,
+    name: &str,
+    observed: &[f64],
+    expected: &[f64],
+) -> (f64, f64) {
+    let alpha = 1.0 - (1.0f64 - 0.01).powf(1.0 / tests_in_file as f64);
+    let mut cells: Vec<(f64, f64)> = observed
+        .iter()
+        .copied()
+        .zip(expected.iter().copied())
+        .collect();
+    for (o, e) in &cells {
+        assert!(
+            *e > 0.0 || *o == 0.0,
+            "{name}: {o} samples in a cell of zero expected count"
+        );
+    }
+    cells.sort_by(|a, b| a.1.partial_cmp(&b.1).unwrap());
+    let (mut pooled_o, mut pooled_e) = (0.0, 0.0);
+    let mut stat = 0.0;
+    let mut dof = 0usize;
+    for (o, e) in cells {
+        if e < 5.0 {
+            pooled_o += o;
+            pooled_e += e;
+            continue;
+        }
+        stat += (o - e).powi(2) / e;
+        dof += 1;
+    }
+    if pooled_e > 0.0 {
+        stat += (pooled_o - pooled_e).powi(2) / pooled_e;
+        dof += 1;
+    }
+    assert!(dof >= 2, "{name}: only {dof} cells, nothing to test");
+    let k = (dof - 1) as f64;
+    let crit = chi2_quantile(k, alpha);
+    assert!(
+        stat < crit,
+        "{name}: chi2 {stat:.1} >= {crit:.1} with {k} dof"
+    );
+    (stat, crit)
+}
