@@ -122,7 +122,9 @@ fn fr_complex(cos_theta_i: f32, eta: f32, k: f32) -> f32 {
 
 /// Fresnel reflectance of a conductor, per RGB channel: `eta` and `k` are the
 /// real and imaginary parts of its index of refraction relative to the medium
-/// above. `eta` must be positive or `k` non-zero in every channel.
+/// above. `eta` must be positive or `k` non-zero in every channel. A purely
+/// imaginary index (`eta = 0`, `k > 0`) is a lossless ideal conductor: both
+/// polarisations reflect with `|r| = 1`, so `F = 1` at every angle.
 pub fn fr_conductor(cos_theta_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
     Vec3::new(
         fr_complex(cos_theta_i, eta.x, k.x),
@@ -226,6 +228,9 @@ mod tests {
         for i in 0..=100 {
             let f = fr_conductor(i as f32 / 100.0, eta, k);
             assert!(f.min_element() >= 0.0 && f.max_element() <= 1.0 + 1e-6);
+            // a purely imaginary index reflects everything (f32 rounding)
+            let ideal = fr_conductor(i as f32 / 100.0, Vec3::ZERO, Vec3::new(0.1, 1.0, 10.0));
+            assert!((ideal - Vec3::ONE).abs().max_element() < 1e-6, "{ideal}");
         }
     }
 
