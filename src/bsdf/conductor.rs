@@ -51,17 +51,20 @@ impl Bxdf for Conductor {
         if self.microfacet.is_smooth() || !(wo.z > 0.0 && wi.z > 0.0) {
             return Vec3::ZERO;
         }
-        let h = wo + wi;
-        if h == Vec3::ZERO {
+        // Every step is symmetric in wo and wi, bit for bit: wo . h = wi . h =
+        // |wo + wi| / 2 (no cancellation in a dot product), and sums and
+        // products in commuted order round alike.
+        let sum = wo + wi;
+        let len = sum.length();
+        if !(len > 0.0) {
             return Vec3::ZERO;
         }
-        let h = h.normalize();
-        let d = self.microfacet.d(h);
+        let d = self.microfacet.d(sum / len);
         if !(d > 0.0) {
             return Vec3::ZERO;
         }
         let g = self.microfacet.g(wo, wi);
-        let f = self.fresnel(wo.dot(h)) * (d * g / (4.0 * wo.z) / wi.z);
+        let f = self.fresnel(0.5 * len) * (d * g / (4.0 * (wo.z * wi.z)));
         if f.is_finite() { f } else { Vec3::ZERO }
     }
 
@@ -69,11 +72,12 @@ impl Bxdf for Conductor {
         if self.microfacet.is_smooth() || !(wo.z > 0.0 && wi.z > 0.0) {
             return 0.0;
         }
-        let h = wo + wi;
-        if h == Vec3::ZERO {
+        let sum = wo + wi;
+        let len = sum.length();
+        if !(len > 0.0) {
             return 0.0;
         }
-        let h = h.normalize();
+        let h = sum / len;
         // D_wo(h) / (4 wo . h), with D_wo(h) = G1(wo) (wo . h) D(h) / wo.z
         let p = self.microfacet.g1(wo) * self.microfacet.d(h) / (4.0 * wo.z);
         if p.is_finite() { p } else { 0.0 }

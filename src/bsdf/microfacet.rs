@@ -131,9 +131,10 @@ impl Microfacet {
         1.0 / (1.0 + self.lambda(w))
     }
 
-    /// Height-correlated masking-shadowing `G2(wo, wi)`; symmetric.
+    /// Height-correlated masking-shadowing `G2(wo, wi)`; symmetric, bit for
+    /// bit (the two `Lambda`s are added first).
     pub fn g(&self, wo: Vec3, wi: Vec3) -> f32 {
-        1.0 / (1.0 + self.lambda(wo) + self.lambda(wi))
+        1.0 / (1.0 + (self.lambda(wo) + self.lambda(wi)))
     }
 
     /// Density of visible normals seen from `w` (`w.z > 0`), per steradian of

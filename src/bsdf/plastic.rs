@@ -159,18 +159,20 @@ impl Plastic {
     }
 
     /// The rough coat's lobe and its pdf given `wo` (both `z > 0`).
+    /// The lobe is symmetric in `wo` and `wi` bit for bit (see
+    /// [`super::Conductor`]'s `eval`).
     fn rough_coat(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
-        let h = wo + wi;
-        if h == Vec3::ZERO {
+        let sum = wo + wi;
+        let len = sum.length();
+        if !(len > 0.0) {
             return (0.0, 0.0);
         }
-        let h = h.normalize();
         let m = &self.microfacet;
-        let d = m.d(h);
+        let d = m.d(sum / len);
         if !(d > 0.0) {
             return (0.0, 0.0);
         }
-        let f = fr_dielectric(wo.dot(h), self.ior) * d * m.g(wo, wi) / (4.0 * wo.z) / wi.z;
+        let f = fr_dielectric(0.5 * len, self.ior) * (d * m.g(wo, wi) / (4.0 * (wo.z * wi.z)));
         let pdf = m.g1(wo) * d / (4.0 * wo.z);
         if f.is_finite() && pdf.is_finite() {
             (f, pdf)
