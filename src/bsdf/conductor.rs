@@ -96,13 +96,13 @@ impl Bxdf for Conductor {
             return None;
         }
         // evaluate at the returned wi so that pdf and f agree with pdf()/eval()
-        let pdf = self.pdf(wo, wi);
-        (pdf > 0.0).then(|| BsdfSample {
+        BsdfSample {
             wi,
             f: self.eval(wo, wi),
-            pdf,
+            pdf: self.pdf(wo, wi),
             delta: false,
-        })
+        }
+        .checked()
     }
 
     fn is_delta(&self) -> bool {

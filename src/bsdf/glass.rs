@@ -83,13 +83,13 @@ impl Bxdf for Glass {
         if u.x < fr {
             // --- specular reflection, probability F ---
             let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-            let f = self.reflectance * (fr / wi.z.abs());
-            return f.is_finite().then_some(BsdfSample {
+            return BsdfSample {
                 wi,
-                f,
+                f: self.reflectance * (fr / wi.z.abs()),
                 pdf: fr,
                 delta: true,
-            });
+            }
+            .checked();
         }
         // --- specular transmission, probability 1 - F ---
         let pt = 1.0 - fr;
@@ -101,13 +101,13 @@ impl Bxdf for Glass {
         if wi.z == 0.0 || wi.z.signum() == wo.z.signum() {
             return None;
         }
-        let f = self.transmittance * (pt / (wi.z.abs() * r.etap * r.etap));
-        f.is_finite().then_some(BsdfSample {
+        BsdfSample {
             wi,
-            f,
+            f: self.transmittance * (pt / (wi.z.abs() * r.etap * r.etap)),
             pdf: pt,
             delta: true,
-        })
+        }
+        .checked()
     }
 
     fn is_delta(&self) -> bool {

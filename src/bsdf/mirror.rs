@@ -28,20 +28,20 @@ impl Default for Mirror {
 }
 
 /// The delta-lobe sample in the mirror direction of `wo` (`wo.z > 0`) with
-/// reflectance `r`: `f = r / cos`, `pdf = 1`. `None` when the cosine is zero
-/// or so small that `f` overflows.
+/// reflectance `r`: `f = r / cos` and the given lobe probability `pdf`.
+/// `None` when the cosine is zero or so small that `f` overflows.
 pub(super) fn specular_reflection(wo: Vec3, r: Vec3, pdf: f32) -> Option<BsdfSample> {
     if !(wo.z > 0.0) || !(pdf > 0.0) {
         return None;
     }
     let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-    let f = r / wi.z;
-    f.is_finite().then_some(BsdfSample {
+    BsdfSample {
         wi,
-        f,
+        f: r / wi.z,
         pdf,
         delta: true,
-    })
+    }
+    .checked()
 }
 
 impl Bxdf for Mirror {

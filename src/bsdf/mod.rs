@@ -74,6 +74,18 @@ impl BsdfSample {
     pub fn weight(&self) -> Vec3 {
         self.f * (self.wi.z.abs() / self.pdf)
     }
+
+    /// `Some(self)` when the pdf is positive and finite and `f` and the
+    /// weight are finite. A sample whose `f` and `pdf` both underflow (a
+    /// microfacet normal deep in a Beckmann tail, probability around 1e-40)
+    /// has a meaningless ratio and is dropped as if rejected.
+    pub(crate) fn checked(self) -> Option<Self> {
+        let ok = self.pdf > 0.0
+            && self.pdf.is_finite()
+            && self.f.is_finite()
+            && self.weight().is_finite();
+        ok.then_some(self)
+    }
 }
 
 /// The interface every BSDF implements (see the module docs for the

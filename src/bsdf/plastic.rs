@@ -253,13 +253,13 @@ impl Bxdf for Plastic {
         if !(wi.z > 0.0) {
             return None;
         }
-        let pdf = self.pdf(wo, wi);
-        (pdf > 0.0).then(|| BsdfSample {
+        BsdfSample {
             wi,
             f: self.eval(wo, wi),
-            pdf,
+            pdf: self.pdf(wo, wi),
             delta: false,
-        })
+        }
+        .checked()
     }
 
     fn is_delta(&self) -> bool {
