@@ -25,9 +25,10 @@
 //!   albedo from outside (for a smooth coat this is the classical identity
 //!   between the internal and external diffuse Fresnel reflectances). Using it
 //!   as the definition of `r_int` for the rough coat too makes a white base
-//!   (`rho = 1`) conserve energy exactly: the directional albedo is then
-//!   `E(mu_o) + (1 - E(mu_o)) = 1` for every `wo`. For the smooth coat this is
-//!   exactly Mitsuba's `plastic`.
+//!   (`rho = 1`) conserve energy: the directional albedo is then
+//!   `E(mu_o) + (1 - E(mu_o)) = 1` for every `wo`, exactly for the smooth
+//!   coat and up to the table's error (about 1e-3) for the rough one. For the
+//!   smooth coat this is exactly Mitsuba's `plastic`.
 //! - `f_d` is symmetric in `wo` and `wi`, so the BRDF is reciprocal.
 //!
 //! **Sampling.** The first random number picks the coat with probability
@@ -40,8 +41,8 @@
 //! mixture `p_s pdf_coat + (1 - p_s) cos / pi`.
 //!
 //! The coat uses GGX. Build a `Plastic` once per material: [`Plastic::new`]
-//! integrates `E(mu)` (a few milliseconds for a rough coat); evaluation then
-//! costs a table lookup.
+//! integrates `E(mu)` (about 15 ms for a rough coat, measured in the test
+//! profile); evaluation then costs a table lookup.
 //!
 //! Scene form: `material = { type = "plastic", diffuse = [r, g, b], ior = 1.5,
 //! alpha = 0.1 }` (`alpha = 0` is smooth).
@@ -54,9 +55,12 @@ use crate::math::{Vec2, Vec3};
 use crate::sampling::{square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf};
 use std::f32::consts::PI;
 
-/// Nodes of the rough coat's albedo table, at `mu = (i / (N - 1))^2`: dense
-/// near grazing, where `E` changes fastest.
-const TABLE: usize = 32;
+/// Nodes of the rough coat's albedo table, at `mu = (i / (N - 1))^3`: dense
+/// near grazing, where `E` changes fastest. With [`TABLE_GRID`], the table
+/// is within 1.2e-3 of `E` for alpha from 0.002 to 1 (measured against a
+/// 256 x 256 grid at 201 angles), which bounds how far a white plastic's
+/// albedo strays from 1.
+const TABLE: usize = 64;
 /// The table's quadrature: an `n x n` midpoint grid over the visible-normal
 /// warp, per node.
 const TABLE_GRID: usize = 64;
@@ -99,7 +103,7 @@ impl Plastic {
         if !microfacet.is_smooth() {
             for (i, e) in p.coat_albedo.iter_mut().enumerate() {
                 let s = i as f32 / (TABLE - 1) as f32;
-                *e = rough_coat_albedo(&microfacet, ior, (s * s).max(1e-4));
+                *e = rough_coat_albedo(&microfacet, ior, (s * s * s).max(1e-5));
             }
         }
         let mut avg = 0.0f64;
@@ -136,7 +140,7 @@ impl Plastic {
         if self.microfacet.is_smooth() {
             return fr_dielectric(mu, self.ior);
         }
-        let s = mu.clamp(0.0, 1.0).sqrt() * (TABLE - 1) as f32;
+        let s = mu.clamp(0.0, 1.0).cbrt() * (TABLE - 1) as f32;
         let i = (s as usize).min(TABLE - 2);
         let t = s - i as f32;
         (1.0 - t) * self.coat_albedo[i] + t * self.coat_albedo[i + 1]
