@@ -102,7 +102,9 @@ fn zoo() -> Vec<(String, Bsdf)> {
     for alpha in [0.0f32, 0.01, 0.2, 0.7] {
         v.push((
             format!("plastic {alpha}"),
-            Plastic::new(Vec3::new(0.8, 0.5, 0.2), 1.5, alpha).into(),
+            Plastic::new(Vec3::new(0.8, 0.5, 0.2), 1.5, alpha)
+                .unwrap()
+                .into(),
         ));
     }
     v
@@ -451,7 +453,7 @@ fn chi2_plastic() {
     let rho = Vec3::new(0.8, 0.5, 0.2);
     let cases = [(0.2f32, 40.0), (0.05, 75.0), (0.0, 60.0)];
     for (k, &(alpha, theta)) in cases.iter().enumerate() {
-        let b: Bsdf = Plastic::new(rho, 1.5, alpha).into();
+        let b: Bsdf = Plastic::new(rho, 1.5, alpha).unwrap().into();
         let name = format!("plastic alpha {alpha} theta {theta}");
         chi2_reflective(&name, &b, dir(theta, 200.0), 1210 + k as u64);
     }
@@ -697,7 +699,7 @@ fn rough_conductor_loses_only_what_single_scattering_explains() {
 fn white_plastic_conserves_energy() {
     let z = sidak_z(1e-6, MC_TESTS);
     for alpha in [0.0f32, 0.3] {
-        let b = Plastic::new(Vec3::ONE, 1.5, alpha);
+        let b = Plastic::new(Vec3::ONE, 1.5, alpha).unwrap();
         for (k, theta) in [0.0f64, 60.0, 85.0].into_iter().enumerate() {
             let wo = dir(theta, 30.0);
             let stats = batch_means(400_000, 100, |i| {

@@ -40,6 +40,26 @@ pub struct Conductor {
 }
 
 impl Conductor {
+    /// Checks that `eta` and `k` are finite and `>= 0` and not both zero in
+    /// any channel (the Fresnel equations divide by `(eta + i k)^2`), and
+    /// that the roughness is finite and `>= 0`.
+    pub fn validate(&self) -> Result<(), String> {
+        let (e, k) = (self.eta, self.k);
+        let ok = e.is_finite()
+            && k.is_finite()
+            && e.min_element() >= 0.0
+            && k.min_element() >= 0.0
+            && (e + k).cmpgt(Vec3::ZERO).all();
+        if !ok {
+            return Err(format!(
+                "`eta` and `k` must be finite numbers >= 0, not both 0 in a channel, \
+                 got eta [{}, {}, {}] and k [{}, {}, {}]",
+                e.x, e.y, e.z, k.x, k.y, k.z
+            ));
+        }
+        super::check_alpha(self.microfacet.alpha)
+    }
+
     /// Fresnel reflectance for a cosine between `wo` and the (micro)normal.
     pub fn fresnel(&self, cos: f32) -> Vec3 {
         fr_conductor(cos, self.eta, self.k)

@@ -59,6 +59,19 @@ impl Default for Glass {
 }
 
 impl Glass {
+    /// Checks that `ior` is finite and positive and both scales are in
+    /// `[0, 1]`.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.ior.is_finite() && self.ior > 0.0) {
+            return Err(format!(
+                "`ior` must be a finite number > 0, got {}",
+                self.ior
+            ));
+        }
+        super::check_unit_rgb("reflectance", self.reflectance)?;
+        super::check_unit_rgb("transmittance", self.transmittance)
+    }
+
     /// The probability that [`Bxdf::sample`] reflects for this `wo`: the
     /// Fresnel reflectance (1 under total internal reflection).
     pub fn reflect_probability(&self, wo: Vec3) -> f32 {

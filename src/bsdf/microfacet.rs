@@ -38,6 +38,21 @@ pub enum Distribution {
     Beckmann,
 }
 
+impl std::str::FromStr for Distribution {
+    type Err = String;
+
+    /// The scene-file names: `ggx` and `beckmann`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "ggx" => Ok(Distribution::Ggx),
+            "beckmann" => Ok(Distribution::Beckmann),
+            _ => Err(format!(
+                "unknown microfacet distribution `{s}` (expected ggx or beckmann)"
+            )),
+        }
+    }
+}
+
 /// An isotropic microfacet distribution of roughness `alpha` (the RMS slope
 /// for Beckmann, the width for GGX; `alpha = 0` is a perfect mirror).
 #[derive(Debug, Clone, Copy, PartialEq)]

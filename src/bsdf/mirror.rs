@@ -27,6 +27,13 @@ impl Default for Mirror {
     }
 }
 
+impl Mirror {
+    /// Checks that the reflectance is finite and in `[0, 1]`.
+    pub fn validate(&self) -> Result<(), String> {
+        super::check_unit_rgb("reflectance", self.reflectance)
+    }
+}
+
 /// The delta-lobe sample in the mirror direction of `wo` (`wo.z > 0`) with
 /// reflectance `r`: `f = r / cos` and the given lobe probability `pdf`.
 /// `None` when the cosine is zero or so small that `f` overflows.

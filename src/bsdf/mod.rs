@@ -172,6 +172,42 @@ impl Bxdf for Bsdf {
     }
 }
 
+impl Bsdf {
+    /// Checks the parameters, so that a loader can report bad input (with its
+    /// file and line) instead of rendering NaN. The message names the scene
+    /// key and the accepted range. ([`Plastic::new`] checks its own.)
+    pub fn validate(&self) -> Result<(), String> {
+        match self {
+            Bsdf::Diffuse(d) => check_unit_rgb("diffuse", d.albedo),
+            Bsdf::Mirror(m) => m.validate(),
+            Bsdf::Glass(g) => g.validate(),
+            Bsdf::Conductor(c) => c.validate(),
+            Bsdf::Plastic(_) => Ok(()),
+        }
+    }
+}
+
+/// `Ok` when every channel of `v` is finite and in `[0, 1]`.
+pub(crate) fn check_unit_rgb(key: &str, v: Vec3) -> Result<(), String> {
+    if v.is_finite() && v.min_element() >= 0.0 && v.max_element() <= 1.0 {
+        Ok(())
+    } else {
+        Err(format!(
+            "`{key}` must be three numbers in [0, 1], got [{}, {}, {}]",
+            v.x, v.y, v.z
+        ))
+    }
+}
+
+/// `Ok` when the roughness is finite and `>= 0`.
+pub(crate) fn check_alpha(alpha: f32) -> Result<(), String> {
+    if alpha.is_finite() && alpha >= 0.0 {
+        Ok(())
+    } else {
+        Err(format!("`alpha` must be a finite number >= 0, got {alpha}"))
+    }
+}
+
 impl From<Diffuse> for Bsdf {
     fn from(b: Diffuse) -> Self {
         Bsdf::Diffuse(b)
@@ -199,5 +235,105 @@ impl From<Conductor> for Bsdf {
 impl From<Plastic> for Bsdf {
     fn from(b: Plastic) -> Self {
         Bsdf::Plastic(b)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn validation_names_the_key() {
+        let ok: [Bsdf; 4] = [
+            Diffuse { albedo: Vec3::ONE }.into(),
+            Mirror::default().into(),
+            Glass::default().into(),
+            Conductor {
+                eta: Vec3::ZERO,
+                k: Vec3::ONE,
+                microfacet: Microfacet::new(Distribution::Beckmann, 0.3),
+            }
+            .into(),
+        ];
+        for b in ok {
+            assert_eq!(b.validate(), Ok(()), "{b:?}");
+        }
+        let bad: [(Bsdf, &str); 6] = [
+            (
+                Diffuse {
+                    albedo: Vec3::splat(1.5),
+                }
+                .into(),
+                "`diffuse`",
+            ),
+            (
+                Mirror {
+                    reflectance: Vec3::new(0.5, f32::NAN, 0.5),
+                }
+                .into(),
+                "`reflectance`",
+            ),
+            (
+                Glass {
+                    ior: 0.0,
+                    ..Glass::default()
+                }
+                .into(),
+                "`ior`",
+            ),
+            (
+                Glass {
+                    transmittance: -Vec3::ONE,
+                    ..Glass::default()
+                }
+                .into(),
+                "`transmittance`",
+            ),
+            (
+                Conductor {
+                    eta: Vec3::ZERO,
+                    k: Vec3::new(1.0, 0.0, 1.0),
+                    microfacet: Microfacet::new(Distribution::Ggx, 0.1),
+                }
+                .into(),
+                "`eta`",
+            ),
+            (
+                Conductor {
+                    eta: Vec3::ONE,
+                    k: Vec3::ONE,
+                    microfacet: Microfacet::new(Distribution::Ggx, f32::INFINITY),
+                }
+                .into(),
+                "`alpha`",
+            ),
+        ];
+        for (b, key) in bad {
+            let e = b.validate().unwrap_err();
+            assert!(e.contains(key), "{e}");
+        }
+        assert!(
+            Plastic::new(Vec3::ONE, 0.9, 0.0)
+                .unwrap_err()
+                .contains("`ior`")
+        );
+        assert!(
+            Plastic::new(Vec3::ONE, 1.5, -1.0)
+                .unwrap_err()
+                .contains("`alpha`")
+        );
+        assert!(
+            Plastic::new(Vec3::splat(2.0), 1.5, 0.1)
+                .unwrap_err()
+                .contains("`diffuse`")
+        );
+        assert_eq!("beckmann".parse(), Ok(Distribution::Beckmann));
+        assert_eq!("ggx".parse(), Ok(Distribution::Ggx));
+        assert!(
+            "phong"
+                .parse::<Distribution>()
+                .unwrap_err()
+                .contains("ggx or beckmann")
+        );
     }
 }

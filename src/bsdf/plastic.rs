@@ -87,9 +87,16 @@ pub struct Plastic {
 
 impl Plastic {
     /// A plastic with base albedo `diffuse` (each channel in `[0, 1]`), coat
-    /// index `ior` (finite, `>= 1`) and GGX roughness `alpha` (finite,
-    /// `>= 0`; below [`Microfacet::SMOOTH_ALPHA`] the coat is smooth).
-    pub fn new(diffuse: Vec3, ior: f32, alpha: f32) -> Self {
+    /// index `ior` (finite, `>= 1`: the base formula assumes a coat denser
+    /// than the air above it) and GGX roughness `alpha` (finite, `>= 0`;
+    /// below [`Microfacet::SMOOTH_ALPHA`] the coat is smooth). An error names
+    /// the offending scene key.
+    pub fn new(diffuse: Vec3, ior: f32, alpha: f32) -> Result<Self, String> {
+        super::check_unit_rgb("diffuse", diffuse)?;
+        if !(ior.is_finite() && ior >= 1.0) {
+            return Err(format!("`ior` must be a finite number >= 1, got {ior}"));
+        }
+        super::check_alpha(alpha)?;
         let microfacet = Microfacet::new(Distribution::Ggx, alpha);
         let mut p = Plastic {
             diffuse,
@@ -117,7 +124,7 @@ impl Plastic {
         p.kd = diffuse / (PI * (Vec3::splat(eta2) - diffuse * (eta2 - 1.0 + e_avg)));
         let a = p.kd * (PI * (1.0 - e_avg));
         p.base_albedo = (a.x + a.y + a.z) / 3.0;
-        p
+        Ok(p)
     }
 
     /// Base albedo.
@@ -288,7 +295,7 @@ mod tests {
     #[test]
     fn smooth_coat_identity() {
         for ior in [1.0f32, 1.33, 1.5, 2.0] {
-            let p = Plastic::new(Vec3::splat(0.5), ior, 0.0);
+            let p = Plastic::new(Vec3::splat(0.5), ior, 0.0).unwrap();
             let n = 100_000;
             let mut r_int = 0.0f64;
             for i in 0..n {
@@ -306,7 +313,7 @@ mod tests {
     /// The rough coat's table rises towards grazing and stays in [0, 1].
     #[test]
     fn rough_coat_table_is_sane() {
-        let p = Plastic::new(Vec3::splat(0.5), 1.5, 0.3);
+        let p = Plastic::new(Vec3::splat(0.5), 1.5, 0.3).unwrap();
         let e1 = p.coat(1.0);
         // near normal incidence about F(1) = 0.04
         assert!((0.02..0.06).contains(&e1), "{e1}");
