@@ -14,52 +14,6 @@ use std::f64::consts::PI;
 const TESTS_IN_FILE: usize = 4;
 const N: usize = 1_000_000;
 
-/// Upper `alpha` quantile of chi-square with `k` degrees of freedom
-/// (Wilson and Hilferty 1931; accurate for k in the hundreds).
-fn chi2_quantile(k: f64, alpha: f64) -> f64 {
-    let z = common::sidak_z(2.0 * alpha, 1); // one-sided
-    let a = 2.0 / (9.0 * k);
-    k * (1.0 - a + z * a.sqrt()).powi(3)
-}
-
-fn chi2_test(name: &str, observed: &[f64], expected: &[f64]) {
-    let alpha = 1.0 - (1.0f64 - 0.01).powf(1.0 / TESTS_IN_FILE as f64);
-    let mut cells: Vec<(f64, f64)> = observed
-        .iter()
-        .copied()
-        .zip(expected.iter().copied())
-        .collect();
-    for (o, e) in &cells {
-        assert!(
-            *e > 0.0 || *o == 0.0,
-            "{name}: {o} samples in a cell of zero expected count"
-        );
-    }
-    cells.sort_by(|a, b| a.1.partial_cmp(&b.1).unwrap());
-    let (mut pooled_o, mut pooled_e) = (0.0, 0.0);
-    let mut stat = 0.0;
-    let mut dof = 0usize;
-    for (o, e) in cells {
-        if e < 5.0 {
-            pooled_o += o;
-            pooled_e += e;
-            continue;
-        }
-        stat += (o - e).powi(2) / e;
-        dof += 1;
-    }
-    if pooled_e > 0.0 {
-        stat += (pooled_o - pooled_e).powi(2) / pooled_e;
-        dof += 1;
-    }
-    let k = (dof - 1) as f64;
-    let crit = chi2_quantile(k, alpha);
-    assert!(
-        stat < crit,
-        "{name}: chi2 {stat:.1} >= {crit:.1} with {k} dof"
-    );
-}
-
 #[test]
 fn cosine_hemisphere() {
     let (nt, np) = (100usize, 200usize);
@@ -82,7 +36,7 @@ fn cosine_hemisphere() {
             exp[i * np + j] = frac * N as f64;
         }
     }
-    chi2_test("cosine hemisphere", &obs, &exp);
+    common::chi2_test(TESTS_IN_FILE, "cosine hemisphere", &obs, &exp);
 }
 
 #[test]
@@ -99,7 +53,7 @@ fn uniform_sphere() {
         obs[i * np + j] += 1.0;
     }
     let exp = vec![N as f64 / (nt * np) as f64; nt * np];
-    chi2_test("uniform sphere", &obs, &exp);
+    common::chi2_test(TESTS_IN_FILE, "uniform sphere", &obs, &exp);
 }
 
 #[test]
@@ -129,7 +83,7 @@ fn uniform_triangle() {
             exp[i * g + j] = area / 0.5 * N as f64;
         }
     }
-    chi2_test("uniform triangle", &obs, &exp);
+    common::chi2_test(TESTS_IN_FILE, "uniform triangle", &obs, &exp);
 }
 
 #[test]
@@ -156,5 +110,5 @@ fn light_selection() {
         .iter()
         .map(|&w| w as f64 / total * N as f64)
         .collect();
-    chi2_test("light selection", &obs, &exp);
+    common::chi2_test(TESTS_IN_FILE, "light selection", &obs, &exp);
 }

@@ -144,7 +144,7 @@ fn chi2_piecewise_constant_2d() {
             f[(j / 3) * nx + i / 3] as f64 / total / 9.0 * N as f64
         })
         .collect();
-    chi2_test("piecewise-constant 2D", &obs, &exp, CHI2_TESTS);
+    chi2_test(CHI2_TESTS, "piecewise-constant 2D", &obs, &exp);
 }
 
 /// Directions binned over (cos theta, phi), 100 x 200 cells, phi measured
@@ -212,7 +212,7 @@ fn chi2_environment_directions() {
         (sum / N as f64 - 1.0).abs() < 1e-5,
         "expected counts sum to {sum}"
     );
-    chi2_test("environment map directions", &obs, &exp, CHI2_TESTS);
+    chi2_test(CHI2_TESTS, "environment map directions", &obs, &exp);
 }
 
 /// Irradiance at an upward normal (+y) by sampling the environment:

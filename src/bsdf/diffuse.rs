@@ -2,7 +2,7 @@
 //! directions (pbrt-v4 section 9.2). Reflection only: `wi` on the other side
 //! of the surface from `wo` gets zero.
 
-use super::BsdfSample;
+use super::{BsdfSample, Bxdf};
 use crate::math::{Vec2, Vec3};
 use crate::sampling::{square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf};
 use std::f32::consts::FRAC_1_PI;
@@ -48,7 +48,30 @@ impl Diffuse {
             wi,
             f: self.albedo * FRAC_1_PI,
             pdf,
+            delta: false,
         })
+    }
+}
+
+impl Bxdf for Diffuse {
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        Diffuse::eval(self, wo, wi)
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        Diffuse::pdf(self, wo, wi)
+    }
+
+    fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
+        Diffuse::sample(self, wo, u)
+    }
+
+    fn is_delta(&self) -> bool {
+        false
+    }
+
+    fn has_delta_component(&self) -> bool {
+        false
     }
 }
 

@@ -167,12 +167,11 @@ pub fn chi2_quantile(k: f64, alpha: f64) -> f64 {
     k * (1.0 - a + z * a.sqrt()).powi(3)
 }
 
-/// Pearson's chi-square goodness-of-fit test at level 0.01, Sidak-corrected
-/// over `tests_in_file` tests (hard case 12): cells with expected count below
-/// 5 are pooled into one; a sample in a cell of zero expected count fails at
-/// once.
-pub fn chi2_test(name: &str, observed: &[f64], expected: &[f64], tests_in_file: usize) {
-    assert_eq!(observed.len(), expected.len());
+/// Pearson's chi-square test of `observed` counts against `expected` counts
+/// at level 0.01, Sidak-corrected over `tests_in_file` tests. Cells with
+/// expected count below 5 are pooled into one; a sample in a cell of zero
+/// expected count fails at once.
+pub fn chi2_test(tests_in_file: usize, name: &str, observed: &[f64], expected: &[f64]) -> Chi2 {
     let alpha = 1.0 - (1.0f64 - 0.01).powf(1.0 / tests_in_file as f64);
     let mut cells: Vec<(f64, f64)> = observed
         .iter()
@@ -202,10 +201,30 @@ pub fn chi2_test(name: &str, observed: &[f64], expected: &[f64], tests_in_file: 
         stat += (pooled_o - pooled_e).powi(2) / pooled_e;
         dof += 1;
     }
+    assert!(dof >= 2, "{name}: only {dof} cells, nothing to test");
     let k = (dof - 1) as f64;
     let crit = chi2_quantile(k, alpha);
     assert!(
         stat < crit,
         "{name}: chi2 {stat:.1} >= {crit:.1} with {k} dof"
     );
+    Chi2 { stat, crit, dof: k }
+}
+
+/// The outcome of a passed [`chi2_test`].
+pub struct Chi2 {
+    /// Pearson's statistic.
+    pub stat: f64,
+    /// Its critical value.
+    pub crit: f64,
+    /// Degrees of freedom.
+    pub dof: f64,
+}
+
+impl Chi2 {
+    /// How many standard deviations (`sqrt(2 dof)`) the statistic lies above
+    /// its mean `dof`.
+    pub fn z(&self) -> f64 {
+        (self.stat - self.dof) / (2.0 * self.dof).sqrt()
+    }
 }
