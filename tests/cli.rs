@@ -168,6 +168,16 @@ fn cases() -> Vec<Case> {
             scene: "m.obj",
             expect: vec!["m.obj:5", "normal index -11"],
         },
+        // found by tests/fuzz_loaders.rs: a quoted newline made the error two lines
+        Case {
+            name: "newline inside a quoted light type",
+            files: vec![(
+                "s.toml",
+                "[[light]]\ntype = \"\\nvironment\"\nradiance = 1\n".into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:1", "`\\nvironment`"],
+        },
     ]
 }
 
