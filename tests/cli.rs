@@ -168,6 +168,91 @@ fn cases() -> Vec<Case> {
             scene: "m.obj",
             expect: vec!["m.obj:5", "normal index -11"],
         },
+        // resource limits (src/scene/limits.rs): refused before anything is
+        // allocated for them, at the line that asks
+        Case {
+            name: "procedural triangle count of 1e12",
+            files: vec![(
+                "s.toml",
+                "[[procedural]]\ntype = \"sphere\"\ntriangles = 1_000_000_000_000\n".into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:3", "triangles", "100000000"],
+        },
+        Case {
+            name: "procedural sphere just past the scene's triangle limit",
+            files: vec![(
+                "s.toml",
+                "[[procedural]]\ntype = \"sphere\"\ntriangles = 99_999_999\n".into(),
+            )],
+            scene: "s.toml",
+            // 5001 rings: 4 * 5001 * 5000 triangles
+            expect: vec!["s.toml:3", "100020000 triangles"],
+        },
+        Case {
+            name: "too many pixels",
+            files: vec![("s.toml", "[film]\nresolution = [32768, 16384]\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:2", "pixels"],
+        },
+        Case {
+            name: "spp beyond u32",
+            files: vec![("s.toml", "[render]\nspp = 4294967296\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:2", "spp"],
+        },
+        Case {
+            name: "spp zero in the scene file",
+            files: vec![("s.toml", "[render]\nseed = 1\nspp = 0\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:3", "spp = 0"],
+        },
+        Case {
+            name: "path depth that would overflow the stack",
+            files: vec![("s.toml", "[render]\nmax_depth = 100000\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:2", "max_depth", "1024"],
+        },
+        Case {
+            name: "zero light samples",
+            files: vec![("s.toml", "[render]\nlight_samples = 0\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:2", "light_samples"],
+        },
+        // non-finite and out-of-range numbers
+        Case {
+            name: "NaN camera origin",
+            files: vec![(
+                "s.toml",
+                "[camera]\norigin = [nan, 0, 3]\ntarget = [0, 0, 0]\n".into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:1", "camera.origin", "finite"],
+        },
+        Case {
+            name: "camera beyond Embree's range",
+            files: vec![(
+                "s.toml",
+                "[camera]\norigin = [0, 0, 1e30]\ntarget = [0, 0, 0]\n".into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:1", "camera.origin", "1.8e18"],
+        },
+        Case {
+            name: "infinite transform scale",
+            files: vec![
+                ("m.obj", GOOD_OBJ.into()),
+                ("s.toml", toml_with_mesh("transform = { scale = inf }")),
+            ],
+            scene: "s.toml",
+            expect: vec!["s.toml:5", "transform.scale", "finite"],
+        },
+        Case {
+            name: "1e30 coordinate",
+            files: vec![("m.obj", "v 0 0 0\nv 1e30 0 0\nv 0 1 0\nf 1 2 3\n".into())],
+            scene: "m.obj",
+            expect: vec!["m.obj:2", "1e30", "1.8e18"],
+        },
         // found by tests/fuzz_loaders.rs: a quoted newline made the error two lines
         Case {
             name: "newline inside a quoted light type",
@@ -177,6 +262,12 @@ fn cases() -> Vec<Case> {
             )],
             scene: "s.toml",
             expect: vec!["s.toml:1", "`\\nvironment`"],
+        },
+        Case {
+            name: "control character in the scene",
+            files: vec![("s.toml", "[camera]\norigin = [0, 0, \u{0}]\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:2"],
         },
     ]
 }
@@ -269,6 +360,10 @@ fn bad_settings_fail_before_rendering() {
         (vec!["m.obj", "-s", "0"], "at least one sample"),
         (vec!["m.obj", "--rr", "1.5"], "[0, 1]"),
         (vec!["m.obj", "-r", "0", "10"], "out of range"),
+        // deeper paths overflowed the render threads' stacks (an abort)
+        (vec!["m.obj", "-m", "5000"], "0..=1024"),
+        (vec!["m.obj", "-s", "16777217"], "1..=16777216"),
+        (vec!["m.obj", "-l", "1025"], "1..=1024"),
     ] {
         let out = run(dir.path(), &args);
         let stderr = String::from_utf8_lossy(&out.stderr);

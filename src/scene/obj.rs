@@ -2,9 +2,12 @@
 //! `Ke` the emitted radiance (an area light, front side only).
 //!
 //! tobj reports malformed files without line numbers, so a short validating
-//! pass runs first: it names the file and line of a non-finite or unparsable
-//! vertex, an out-of-range face index, or a missing material library.
+//! pass runs first: it names the file and line of a non-finite, out-of-range
+//! ([`MAX_COORDINATE`]) or unparsable vertex, an out-of-range face index, a
+//! face that takes the file past [`MAX_TRIANGLES`], or a missing material
+//! library.
 
+use super::limits::{MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
 use super::{Material, MeshData, Scene, SceneBuilder, Transform};
 use crate::error::{Error, Result};
 use crate::math::Vec3;
@@ -134,7 +137,16 @@ fn validate(path: &Path, text: &str) -> Result<Vec<PathBuf>> {
     // positions, texture coordinates, normals: in the file, and seen so far
     // (negative indices count back from the last one seen)
     let total = [count("v"), count("vt"), count("vn")];
+    if total[0] as u64 > MAX_VERTICES {
+        return Err(Error::input(
+            path,
+            None,
+            format!("{} vertices (at most {MAX_VERTICES} in a scene)", total[0]),
+        ));
+    }
     let mut seen = [0i64; 3];
+    // triangles after fan triangulation: a face of n vertices makes n - 2
+    let mut triangles = 0u64;
     let mut libs = Vec::new();
     let dir = path.parent().unwrap_or(Path::new(""));
     for (n, line) in text.lines().enumerate() {
@@ -153,7 +165,16 @@ fn validate(path: &Path, text: &str) -> Result<Vec<PathBuf>> {
                 }
                 for c in &coords[..3] {
                     match c.parse::<f32>() {
-                        Ok(x) if x.is_finite() => {}
+                        Ok(x) if x.abs() <= MAX_COORDINATE => {}
+                        Ok(x) if x.is_finite() => {
+                            return Err(Error::input(
+                                path,
+                                line_no,
+                                format!(
+                                    "vertex coordinate `{c}` is beyond +-{MAX_COORDINATE:e} (expected a number within Embree's range)"
+                                ),
+                            ));
+                        }
                         Ok(_) => {
                             return Err(Error::input(
                                 path,
@@ -183,6 +204,16 @@ fn validate(path: &Path, text: &str) -> Result<Vec<PathBuf>> {
                         path,
                         line_no,
                         "a face needs at least three vertices",
+                    ));
+                }
+                triangles += verts.len() as u64 - 2;
+                if triangles > MAX_TRIANGLES {
+                    return Err(Error::input(
+                        path,
+                        line_no,
+                        format!(
+                            "this face takes the file past {MAX_TRIANGLES} triangles (the scene limit)"
+                        ),
                     ));
                 }
                 for v in verts {
@@ -270,7 +301,7 @@ fn validate_mtl(lib: &Path) -> Result<()> {
 pub fn load_bare(path: &Path) -> Result<Scene> {
     let mesh = load_obj_mesh(path)?;
     let mut b = SceneBuilder::new(path);
-    b.add_mesh(mesh, &Transform::default());
+    b.add_mesh_from(mesh, &Transform::default(), None)?;
     let mut scene = b.build();
     scene.camera = Scene::framing_camera(&scene.bounds());
     scene
