@@ -646,6 +646,9 @@ fn run_render(args: RenderArgs) -> Result<()> {
     for note in &scene.notes {
         say(&format!("note: {note}"));
     }
+    for warning in &scene.warnings {
+        say(&format!("warning: {warning}"));
+    }
 
     let resolution = match &args.resolution {
         Some(r) => [r[0], r[1]],

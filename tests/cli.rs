@@ -375,6 +375,32 @@ fn bad_settings_fail_before_rendering() {
 }
 
 #[test]
+fn triangles_placed_out_of_range_are_one_warning_and_the_render_goes_on() {
+    let dir = tempfile::tempdir().unwrap();
+    // the second triangle's corners reach 2e18 once scaled: out of Embree's range
+    let toml = toml_with_mesh("\n[[mesh]]\nfile = \"m.obj\"\ntransform = { scale = 2e18 }");
+    setup(dir.path(), &[("m.obj", GOOD_OBJ.into()), ("s.toml", toml)]);
+    let out = run(
+        dir.path(),
+        &["s.toml", "-s", "1", "-r", "8", "8", "-o", "out.png"],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let warnings: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("warning:"))
+        .collect();
+    assert_eq!(
+        warnings,
+        [
+            "warning: s.toml:8: mesh `m.obj`: dropped 1 triangles with coordinates beyond 1.8e18 or non-finite after transform"
+        ],
+        "{stderr}"
+    );
+    assert!(dir.path().join("out.png").is_file());
+}
+
+#[test]
 fn classic_command_line_renders() {
     let dir = tempfile::tempdir().unwrap();
     setup(dir.path(), &[("m.obj", GOOD_OBJ.into())]);

@@ -115,8 +115,12 @@ pub struct Scene {
     pub resolution: [u32; 2],
     /// Render defaults from the file.
     pub render: RenderDefaults,
-    /// Things worth telling the user (dropped triangles, defaults applied).
+    /// Things worth telling the user (degenerate triangles dropped, defaults
+    /// applied).
     pub notes: Vec<String>,
+    /// Things the user should act on, one line each: triangles dropped
+    /// because a transform took them out of range.
+    pub warnings: Vec<String>,
 }
 
 impl Scene {
@@ -323,14 +327,15 @@ impl SceneBuilder {
                 resolution: [512, 512],
                 render: RenderDefaults::default(),
                 notes: Vec::new(),
+                warnings: Vec::new(),
             },
             max_triangles: MAX_TRIANGLES,
         }
     }
 
     /// Add a mesh placed by `transform`. Triangles whose corners become
-    /// non-finite or leave [`MAX_COORDINATE`], or whose area is zero, are
-    /// dropped and counted in a note naming the mesh. For
+    /// non-finite or leave [`MAX_COORDINATE`] are dropped with one warning
+    /// naming the mesh; zero-area triangles are dropped with a note. For
     /// meshes built in code (tests, parity scenes); loaders use
     /// [`SceneBuilder::add_mesh_from`], which also enforces the scene limits.
     pub fn add_mesh(&mut self, mesh: MeshData, transform: &Transform) {
@@ -421,8 +426,8 @@ impl SceneBuilder {
         };
         let name = crate::error::one_line(&mesh.name);
         if out_of_range > 0 {
-            s.notes.push(format!(
-                "{at}: mesh `{name}`: dropped {out_of_range} triangles whose placed coordinates are not finite or exceed {MAX_COORDINATE:e} in magnitude"
+            s.warnings.push(format!(
+                "{at}: mesh `{name}`: dropped {out_of_range} triangles with coordinates beyond {MAX_COORDINATE:e} or non-finite after transform"
             ));
         }
         if degenerate > 0 {
@@ -509,5 +514,38 @@ mod tests {
             assert!(e.starts_with(&format!("s.toml:2: mesh `{name}`")), "{e}");
             assert_eq!(b.triangle_count(), 0);
         }
+    }
+
+    #[test]
+    fn out_of_range_and_degenerate_triangles_are_reported_apart() {
+        let mut b = SceneBuilder::new(Path::new("s.toml"));
+        let mut mesh = triangle("m");
+        // a degenerate triangle (repeated corner) next to the good one
+        mesh.indices.push([0, 1, 1]);
+        mesh.tri_material.push(0);
+        b.add_mesh(mesh, &Transform::default());
+        // corners at exactly MAX_COORDINATE are inside the range
+        let far = Transform {
+            scale: Vec3::splat(MAX_COORDINATE),
+            ..Transform::default()
+        };
+        b.add_mesh(triangle("edge"), &far);
+        let beyond = Transform {
+            translate: Vec3::new(0.0, -2.0 * MAX_COORDINATE, 0.0),
+            ..Transform::default()
+        };
+        b.add_mesh(triangle("beyond"), &beyond);
+        let s = b.build();
+        assert_eq!(s.triangle_count(), 2);
+        assert_eq!(
+            s.warnings,
+            [
+                "s.toml: mesh `beyond`: dropped 1 triangles with coordinates beyond 1.8e18 or non-finite after transform"
+            ]
+        );
+        assert_eq!(
+            s.notes,
+            ["s.toml: mesh `m`: dropped 1 degenerate (zero-area) triangles"]
+        );
     }
 }
