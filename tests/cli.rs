@@ -253,6 +253,45 @@ fn cases() -> Vec<Case> {
             scene: "m.obj",
             expect: vec!["m.obj:2", "1e30", "1.8e18"],
         },
+        Case {
+            name: "w that makes a coordinate infinite",
+            files: vec![("m.obj", "v 0 0 0\nv 0 1 0\nv 1 0 0 1e-40\nf 1 2 3\n".into())],
+            scene: "m.obj",
+            expect: vec!["m.obj:3", "w = `1e-40`", "finite"],
+        },
+        Case {
+            name: "truncated vertex",
+            files: vec![("m.obj", "v 0 0 0\nv 1 0 0\nv 0 1\n".into())],
+            scene: "m.obj",
+            expect: vec!["m.obj:3", "v x y z"],
+        },
+        Case {
+            name: "face index past the end of its object",
+            files: vec![(
+                "m.obj",
+                "o a\nf 1 2 3\no b\nv 0 0 0\nv 1 0 0\nv 0 1 0\n".into(),
+            )],
+            scene: "m.obj",
+            expect: vec!["m.obj:2", "index 3"],
+        },
+        Case {
+            name: "albedo above one in the material library",
+            files: vec![
+                ("m.obj", format!("mtllib m.mtl\nusemtl a\n{GOOD_OBJ}")),
+                ("m.mtl", "newmtl a\nKd 0.5 2 0.5\n".into()),
+            ],
+            scene: "m.obj",
+            expect: vec!["m.mtl:2", "Kd", "[0, 1]"],
+        },
+        Case {
+            name: "directory as material library",
+            files: vec![
+                ("lib.mtl/x", String::new()),
+                ("m.obj", format!("mtllib lib.mtl\n{GOOD_OBJ}")),
+            ],
+            scene: "m.obj",
+            expect: vec!["m.obj:1", "lib.mtl"],
+        },
         // found by tests/fuzz_loaders.rs: a quoted newline made the error two lines
         Case {
             name: "newline inside a quoted light type",
