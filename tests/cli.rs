@@ -283,6 +283,13 @@ fn cases() -> Vec<Case> {
             scene: "m.obj",
             expect: vec!["m.mtl:2", "Kd", "[0, 1]"],
         },
+        // directories where files are expected
+        Case {
+            name: "directory as mesh file",
+            files: vec![("d.obj/x", String::new()), ("s.toml", "[camera]\norigin = [0, 0, 3]\ntarget = [0, 0, 0]\n\n[[mesh]]\nfile = \"d.obj\"\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:5", "d.obj", "directory"],
+        },
         Case {
             name: "directory as material library",
             files: vec![

@@ -340,6 +340,16 @@ pub fn load(path: &Path) -> Result<Scene> {
                 format!("mesh file `{}`: unknown format (expected .obj)", m.file),
             ));
         }
+        if mesh_path.is_dir() {
+            return Err(Error::input(
+                path,
+                line,
+                format!(
+                    "mesh file `{}` is a directory (expected an .obj file)",
+                    m.file
+                ),
+            ));
+        }
         if !mesh_path.is_file() {
             return Err(Error::input(
                 path,
