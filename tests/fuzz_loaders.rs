@@ -288,3 +288,28 @@ fn fuzz_mtl_library() {
     let files = [("scene.toml", TOML), ("mesh.obj", OBJ), ("mesh.mtl", MTL)];
     fuzz("mtl", &files, "mesh.mtl", "mesh.obj");
 }
+
+/// Many tables load in time linear in the file. Finding each table's line
+/// used to scan the whole file (20,000 `[[light]]` tables took 8.3 s, and
+/// the time grew with their square), and each `[[mesh]]` parsed its OBJ
+/// again.
+#[test]
+fn many_tables_load_in_linear_time() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("mesh.obj"), OBJ).unwrap();
+    std::fs::write(dir.path().join("mesh.mtl"), MTL).unwrap();
+    let n = 40_000;
+    let mut toml = String::from("[camera]\norigin = [0, 0, 3]\ntarget = [0, 0, 0]\n");
+    for _ in 0..n {
+        toml.push_str("[[light]]\ntype = \"environment\"\nradiance = 0.00001\n");
+        toml.push_str("[[mesh]]\nfile = \"mesh.obj\"\n");
+    }
+    std::fs::write(dir.path().join("scene.toml"), toml).unwrap();
+    let t = Instant::now();
+    let scene = Scene::load(&dir.path().join("scene.toml")).unwrap();
+    let took = t.elapsed();
+    assert_eq!(scene.meshes.len(), n);
+    // 10 s: room for a loaded CI machine, and a small fraction of the
+    // quadratic time
+    assert!(took < Duration::from_secs(10), "{took:?}");
+}

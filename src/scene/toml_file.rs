@@ -30,13 +30,16 @@
 
 use super::limits::{self, MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
 use super::procedural::{self, Shape};
-use super::{CameraDesc, Material, RenderDefaults, Scene, SceneBuilder, Transform, load_obj_mesh};
+use super::{
+    CameraDesc, Material, MeshData, RenderDefaults, Scene, SceneBuilder, Transform, load_obj_mesh,
+};
 use crate::error::{Error, Result};
 use crate::math::Vec3;
 use serde::Deserialize;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
+use std::collections::HashMap;
 use std::fmt;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use toml::Spanned;
 
 #[derive(Deserialize)]
@@ -186,14 +189,15 @@ fn line_of(text: &str, offset: usize) -> usize {
         + 1
 }
 
-/// Line of the `index`-th `[[table]]` header named `name`, for messages.
-fn table_line(text: &str, name: &str, index: usize) -> Option<usize> {
+/// Lines (1-based) of the `[[table]]` headers named `name`, in order, for
+/// messages. One pass over the text: a scene may list many tables.
+fn table_lines(text: &str, name: &str) -> Vec<usize> {
     let header = format!("[[{name}]]");
     text.lines()
         .enumerate()
         .filter(|(_, l)| l.trim_start().starts_with(&header))
-        .nth(index)
         .map(|(n, _)| n + 1)
+        .collect()
 }
 
 /// Check a spanned integer with `check` (from [`limits`]); errors at its line.
@@ -326,8 +330,11 @@ pub fn load(path: &Path) -> Result<Scene> {
     let dir = path.parent().unwrap_or(Path::new(""));
     let mut b = SceneBuilder::new(path);
 
+    let mesh_lines = table_lines(&text, "mesh");
+    // a file listed again is parsed once
+    let mut loaded: HashMap<PathBuf, MeshData> = HashMap::new();
     for (i, m) in file.mesh.iter().enumerate() {
-        let line = table_line(&text, "mesh", i);
+        let line = mesh_lines.get(i).copied();
         let mesh_path = dir.join(&m.file);
         let ext = mesh_path
             .extension()
@@ -360,7 +367,14 @@ pub fn load(path: &Path) -> Result<Scene> {
                 ),
             ));
         }
-        let mut mesh = load_obj_mesh(&mesh_path)?;
+        let mut mesh = match loaded.get(&mesh_path) {
+            Some(mesh) => mesh.clone(),
+            None => {
+                let mesh = load_obj_mesh(&mesh_path)?;
+                loaded.insert(mesh_path.clone(), mesh.clone());
+                mesh
+            }
+        };
         if let Some(over) = &m.material {
             for mat in &mut mesh.materials {
                 apply_material(path, line, over, mat)?;
@@ -370,8 +384,9 @@ pub fn load(path: &Path) -> Result<Scene> {
         b.add_mesh_from(mesh, &transform, line)?;
     }
 
+    let procedural_lines = table_lines(&text, "procedural");
     for (i, p) in file.procedural.iter().enumerate() {
-        let line = table_line(&text, "procedural", i);
+        let line = procedural_lines.get(i).copied();
         let shape = match p.kind.as_str() {
             "sphere" => Shape::Sphere,
             "terrain" => Shape::Terrain,
@@ -430,8 +445,9 @@ pub fn load(path: &Path) -> Result<Scene> {
     }
 
     let scene = b.scene_mut();
+    let light_lines = table_lines(&text, "light");
     for (i, l) in file.light.iter().enumerate() {
-        let line = table_line(&text, "light", i);
+        let line = light_lines.get(i).copied();
         match l.kind.as_str() {
             "environment" => {
                 let r = l.radiance.ok_or_else(|| {
@@ -523,6 +539,6 @@ mod tests {
         assert_eq!(line_of("a\nb\nc", 2), 2);
         assert_eq!(line_of("\u{e9}\n\u{e9}", 1), 1, "inside a character");
         assert_eq!(line_of("a\n", 99), 2, "past the end");
-        assert_eq!(table_line("[[mesh]]\nx=1\n[[mesh]]\n", "mesh", 1), Some(3));
+        assert_eq!(table_lines("[[mesh]]\nx=1\n[[mesh]]\n", "mesh"), vec![1, 3]);
     }
 }
