@@ -1,9 +1,30 @@
 //! The crate's one error type. Every loader and builder returns `Result<T>`;
 //! errors carry the file (and line where known) and say what was expected, so
-//! the command line can print them as a single line.
+//! the command line can print them as a single line. Messages quote what a
+//! file said, so control characters in file names and quoted text are shown
+//! escaped (`\n`, `\u{1b}`): an error is always one line.
 
+use std::borrow::Cow;
 use std::fmt;
 use std::path::{Path, PathBuf};
+
+/// `s` with every control character escaped as Rust writes it, so that it
+/// prints on one line.
+pub fn one_line(s: &str) -> Cow<'_, str> {
+    if s.chars().any(char::is_control) {
+        s.chars()
+            .map(|c| {
+                if c.is_control() {
+                    c.escape_debug().to_string()
+                } else {
+                    c.to_string()
+                }
+            })
+            .collect()
+    } else {
+        Cow::Borrowed(s)
+    }
+}
 
 /// Where in an input file something went wrong.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -16,9 +37,10 @@ pub struct Location {
 
 impl fmt::Display for Location {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let file = self.file.display().to_string();
         match self.line {
-            Some(line) => write!(f, "{}:{}", self.file.display(), line),
-            None => write!(f, "{}", self.file.display()),
+            Some(line) => write!(f, "{}:{}", one_line(&file), line),
+            None => write!(f, "{}", one_line(&file)),
         }
     }
 }
@@ -35,7 +57,7 @@ pub enum Error {
         message: String,
     },
     /// An I/O failure on a file we were told to read or write.
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {}", one_line(&path.display().to_string()), one_line(&source.to_string()))]
     Io {
         /// The file.
         path: PathBuf,
@@ -69,7 +91,7 @@ impl Error {
                 file: file.to_path_buf(),
                 line,
             },
-            message: message.into(),
+            message: one_line(&message.into()).into_owned(),
         }
     }
 
@@ -79,5 +101,19 @@ impl Error {
             path: path.to_path_buf(),
             source,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn messages_and_file_names_print_on_one_line() {
+        let e = Error::input(Path::new("a\nb.toml"), Some(3), "type `x\ny\u{1b}` unknown");
+        assert_eq!(e.to_string(), "a\\nb.toml:3: type `x\\ny\\u{1b}` unknown");
+        let e = Error::io(Path::new("c\rd"), std::io::Error::other("gone"));
+        assert_eq!(e.to_string(), "c\\rd: gone");
+        assert_eq!(one_line("plain é"), "plain é");
     }
 }

@@ -16,7 +16,7 @@ use embertrace::render::{self, RenderSettings};
 use embertrace::report::RenderReport;
 use embertrace::report::{ErrorEstimate, ProgressiveReport};
 use embertrace::sampler::SamplerKind;
-use embertrace::scene::{MAX_PIXELS, MAX_RESOLUTION, Scene};
+use embertrace::scene::{MAX_PIXELS, MAX_RESOLUTION, Scene, limits};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -646,6 +646,9 @@ fn run_render(args: RenderArgs) -> Result<()> {
     for note in &scene.notes {
         say(&format!("note: {note}"));
     }
+    for warning in &scene.warnings {
+        say(&format!("warning: {warning}"));
+    }
 
     let resolution = match &args.resolution {
         Some(r) => [r[0], r[1]],
@@ -670,6 +673,17 @@ fn run_render(args: RenderArgs) -> Result<()> {
         return Err(Error::Settings(
             "-s 0: expected at least one sample per pixel".into(),
         ));
+    }
+    // the scene file's values were checked when it loaded; these are the flags'
+    let flag = |name: &str, r: std::result::Result<(), String>| {
+        r.map_err(|m| Error::Settings(format!("{name}: {m}")))
+    };
+    flag("-s", limits::check_spp(spp as u64))?;
+    if let Some(m) = args.max_depth {
+        flag("-m", limits::check_max_depth(m as u64))?;
+    }
+    if let Some(l) = args.light_samples {
+        flag("-l", limits::check_light_samples(l.max(1) as u64))?;
     }
     let seed = args.seed.unwrap_or(scene.render.seed);
     let integrator = IntegratorSettings {

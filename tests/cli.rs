@@ -168,6 +168,153 @@ fn cases() -> Vec<Case> {
             scene: "m.obj",
             expect: vec!["m.obj:5", "normal index -11"],
         },
+        // resource limits (src/scene/limits.rs): refused before anything is
+        // allocated for them, at the line that asks
+        Case {
+            name: "procedural triangle count of 1e12",
+            files: vec![(
+                "s.toml",
+                "[[procedural]]\ntype = \"sphere\"\ntriangles = 1_000_000_000_000\n".into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:3", "triangles", "100000000"],
+        },
+        Case {
+            name: "procedural sphere just past the scene's triangle limit",
+            files: vec![(
+                "s.toml",
+                "[[procedural]]\ntype = \"sphere\"\ntriangles = 99_999_999\n".into(),
+            )],
+            scene: "s.toml",
+            // 5001 rings: 4 * 5001 * 5000 triangles
+            expect: vec!["s.toml:3", "100020000 triangles"],
+        },
+        Case {
+            name: "too many pixels",
+            files: vec![("s.toml", "[film]\nresolution = [32768, 16384]\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:2", "pixels"],
+        },
+        Case {
+            name: "spp beyond u32",
+            files: vec![("s.toml", "[render]\nspp = 4294967296\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:2", "spp"],
+        },
+        Case {
+            name: "spp zero in the scene file",
+            files: vec![("s.toml", "[render]\nseed = 1\nspp = 0\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:3", "spp = 0"],
+        },
+        Case {
+            name: "path depth that would overflow the stack",
+            files: vec![("s.toml", "[render]\nmax_depth = 100000\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:2", "max_depth", "1024"],
+        },
+        Case {
+            name: "zero light samples",
+            files: vec![("s.toml", "[render]\nlight_samples = 0\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:2", "light_samples"],
+        },
+        // non-finite and out-of-range numbers
+        Case {
+            name: "NaN camera origin",
+            files: vec![(
+                "s.toml",
+                "[camera]\norigin = [nan, 0, 3]\ntarget = [0, 0, 0]\n".into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:1", "camera.origin", "finite"],
+        },
+        Case {
+            name: "camera beyond Embree's range",
+            files: vec![(
+                "s.toml",
+                "[camera]\norigin = [0, 0, 1e30]\ntarget = [0, 0, 0]\n".into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:1", "camera.origin", "1.8e18"],
+        },
+        Case {
+            name: "infinite transform scale",
+            files: vec![
+                ("m.obj", GOOD_OBJ.into()),
+                ("s.toml", toml_with_mesh("transform = { scale = inf }")),
+            ],
+            scene: "s.toml",
+            expect: vec!["s.toml:5", "transform.scale", "finite"],
+        },
+        Case {
+            name: "1e30 coordinate",
+            files: vec![("m.obj", "v 0 0 0\nv 1e30 0 0\nv 0 1 0\nf 1 2 3\n".into())],
+            scene: "m.obj",
+            expect: vec!["m.obj:2", "1e30", "1.8e18"],
+        },
+        Case {
+            name: "w that makes a coordinate infinite",
+            files: vec![("m.obj", "v 0 0 0\nv 0 1 0\nv 1 0 0 1e-40\nf 1 2 3\n".into())],
+            scene: "m.obj",
+            expect: vec!["m.obj:3", "w = `1e-40`", "finite"],
+        },
+        Case {
+            name: "truncated vertex",
+            files: vec![("m.obj", "v 0 0 0\nv 1 0 0\nv 0 1\n".into())],
+            scene: "m.obj",
+            expect: vec!["m.obj:3", "v x y z"],
+        },
+        Case {
+            name: "face index past the end of its object",
+            files: vec![(
+                "m.obj",
+                "o a\nf 1 2 3\no b\nv 0 0 0\nv 1 0 0\nv 0 1 0\n".into(),
+            )],
+            scene: "m.obj",
+            expect: vec!["m.obj:2", "index 3"],
+        },
+        Case {
+            name: "albedo above one in the material library",
+            files: vec![
+                ("m.obj", format!("mtllib m.mtl\nusemtl a\n{GOOD_OBJ}")),
+                ("m.mtl", "newmtl a\nKd 0.5 2 0.5\n".into()),
+            ],
+            scene: "m.obj",
+            expect: vec!["m.mtl:2", "Kd", "[0, 1]"],
+        },
+        // directories where files are expected
+        Case {
+            name: "directory as mesh file",
+            files: vec![("d.obj/x", String::new()), ("s.toml", "[camera]\norigin = [0, 0, 3]\ntarget = [0, 0, 0]\n\n[[mesh]]\nfile = \"d.obj\"\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:5", "d.obj", "directory"],
+        },
+        Case {
+            name: "directory as material library",
+            files: vec![
+                ("lib.mtl/x", String::new()),
+                ("m.obj", format!("mtllib lib.mtl\n{GOOD_OBJ}")),
+            ],
+            scene: "m.obj",
+            expect: vec!["m.obj:1", "lib.mtl"],
+        },
+        // found by tests/fuzz_loaders.rs: a quoted newline made the error two lines
+        Case {
+            name: "newline inside a quoted light type",
+            files: vec![(
+                "s.toml",
+                "[[light]]\ntype = \"\\nvironment\"\nradiance = 1\n".into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:1", "`\\nvironment`"],
+        },
+        Case {
+            name: "control character in the scene",
+            files: vec![("s.toml", "[camera]\norigin = [0, 0, \u{0}]\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:2"],
+        },
     ]
 }
 
@@ -259,6 +406,10 @@ fn bad_settings_fail_before_rendering() {
         (vec!["m.obj", "-s", "0"], "at least one sample"),
         (vec!["m.obj", "--rr", "1.5"], "[0, 1]"),
         (vec!["m.obj", "-r", "0", "10"], "out of range"),
+        // deeper paths overflowed the render threads' stacks (an abort)
+        (vec!["m.obj", "-m", "5000"], "0..=1024"),
+        (vec!["m.obj", "-s", "16777217"], "1..=16777216"),
+        (vec!["m.obj", "-l", "1025"], "1..=1024"),
     ] {
         let out = run(dir.path(), &args);
         let stderr = String::from_utf8_lossy(&out.stderr);
@@ -267,6 +418,32 @@ fn bad_settings_fail_before_rendering() {
         assert!(!stderr.contains("panicked"));
     }
     assert_eq!(entries(dir.path()), vec![dir.path().join("m.obj")]);
+}
+
+#[test]
+fn triangles_placed_out_of_range_are_one_warning_and_the_render_goes_on() {
+    let dir = tempfile::tempdir().unwrap();
+    // the second triangle's corners reach 2e18 once scaled: out of Embree's range
+    let toml = toml_with_mesh("\n[[mesh]]\nfile = \"m.obj\"\ntransform = { scale = 2e18 }");
+    setup(dir.path(), &[("m.obj", GOOD_OBJ.into()), ("s.toml", toml)]);
+    let out = run(
+        dir.path(),
+        &["s.toml", "-s", "1", "-r", "8", "8", "-o", "out.png"],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let warnings: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("warning:"))
+        .collect();
+    assert_eq!(
+        warnings,
+        [
+            "warning: s.toml:8: mesh `m.obj`: dropped 1 triangles with coordinates beyond 1.8e18 or non-finite after transform"
+        ],
+        "{stderr}"
+    );
+    assert!(dir.path().join("out.png").is_file());
 }
 
 #[test]

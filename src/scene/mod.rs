@@ -2,8 +2,10 @@
 //! render defaults, shared read-only by every render thread. One loader per
 //! format fills it through [`SceneBuilder`], which is also where geometry is
 //! cleaned (degenerate and non-finite triangles dropped and reported) so that
-//! every backend sees the same triangles.
+//! every backend sees the same triangles, and where the scene-wide limits of
+//! [`limits`] are enforced.
 
+pub mod limits;
 mod obj;
 pub mod procedural;
 mod toml_file;
@@ -12,12 +14,8 @@ use crate::error::{Error, Result};
 use crate::math::{SurfacePoint, Vec3, triangle_normal};
 use std::path::{Path, PathBuf};
 
+pub use limits::{MAX_COORDINATE, MAX_PIXELS, MAX_RESOLUTION, MAX_TRIANGLES, MAX_VERTICES};
 pub use obj::load_obj_mesh;
-
-/// Largest accepted image side, in pixels.
-pub const MAX_RESOLUTION: u32 = 1 << 15;
-/// Largest accepted pixel count (about 268 Mpixels, 15 GiB of f64 film).
-pub const MAX_PIXELS: u64 = 1 << 28;
 
 /// A diffuse, possibly emissive material.
 #[derive(Debug, Clone, PartialEq)]
@@ -56,13 +54,6 @@ pub struct CameraDesc {
     /// Vertical field of view in degrees.
     pub fov_y: f32,
 }
-
-/// Largest coordinate magnitude a placed vertex may have. Embree treats a
-/// primitive with a vertex beyond about 1.844e18 in magnitude as invalid and
-/// silently ignores it (Embree API documentation, "invalid primitives"); we
-/// drop such triangles ourselves, with a note, so that every backend sees
-/// the same scene and the user hears about it.
-pub const MAX_COORDINATE: f32 = 1.8e18;
 
 /// Render settings a scene file may set; command-line flags override them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -124,8 +115,12 @@ pub struct Scene {
     pub resolution: [u32; 2],
     /// Render defaults from the file.
     pub render: RenderDefaults,
-    /// Things worth telling the user (dropped triangles, defaults applied).
+    /// Things worth telling the user (degenerate triangles dropped, defaults
+    /// applied).
     pub notes: Vec<String>,
+    /// Things the user should act on, one line each: triangles dropped
+    /// because a transform took them out of range.
+    pub warnings: Vec<String>,
 }
 
 impl Scene {
@@ -311,6 +306,8 @@ pub struct MeshData {
 #[derive(Debug)]
 pub struct SceneBuilder {
     scene: Scene,
+    /// [`MAX_TRIANGLES`], lowered by unit tests.
+    max_triangles: u64,
 }
 
 impl SceneBuilder {
@@ -330,14 +327,70 @@ impl SceneBuilder {
                 resolution: [512, 512],
                 render: RenderDefaults::default(),
                 notes: Vec::new(),
+                warnings: Vec::new(),
             },
+            max_triangles: MAX_TRIANGLES,
         }
     }
 
     /// Add a mesh placed by `transform`. Triangles whose corners become
-    /// non-finite or leave [`MAX_COORDINATE`], or whose area is zero, are
-    /// dropped and counted in a note naming the mesh.
+    /// non-finite or leave [`MAX_COORDINATE`] are dropped with one warning
+    /// naming the mesh; zero-area triangles are dropped with a note. For
+    /// meshes built in code (tests, parity scenes); loaders use
+    /// [`SceneBuilder::add_mesh_from`], which also enforces the scene limits.
     pub fn add_mesh(&mut self, mesh: MeshData, transform: &Transform) {
+        self.place(mesh, transform, None);
+    }
+
+    /// Add a mesh that the scene file describes at `line`, placed by
+    /// `transform`, after checking it against the scene-wide limits
+    /// ([`MAX_TRIANGLES`], [`MAX_VERTICES`]) and its own consistency (every
+    /// vertex and material index in range). Errors name the scene file and
+    /// `line`; nothing is added then.
+    pub fn add_mesh_from(
+        &mut self,
+        mesh: MeshData,
+        transform: &Transform,
+        line: Option<usize>,
+    ) -> Result<()> {
+        let s = &self.scene;
+        let fail = |msg: String| Err(Error::input(&s.source, line, msg));
+        let tris = s.indices.len() as u64 + mesh.indices.len() as u64;
+        if tris > self.max_triangles {
+            return fail(format!(
+                "mesh `{}` ({} triangles) would take the scene to {tris} triangles (at most {})",
+                mesh.name,
+                mesh.indices.len(),
+                self.max_triangles
+            ));
+        }
+        let verts = s.positions.len() as u64 + mesh.positions.len() as u64;
+        if verts > MAX_VERTICES {
+            return fail(format!(
+                "mesh `{}` ({} vertices) would take the scene to {verts} vertices (at most {MAX_VERTICES})",
+                mesh.name,
+                mesh.positions.len()
+            ));
+        }
+        let n = mesh.positions.len() as u64;
+        if mesh.indices.iter().flatten().any(|&i| i as u64 >= n)
+            || mesh.tri_material.len() != mesh.indices.len()
+            || mesh
+                .tri_material
+                .iter()
+                .any(|&m| m as usize >= mesh.materials.len())
+        {
+            return fail(format!(
+                "mesh `{}`: a vertex or material index is out of range",
+                mesh.name
+            ));
+        }
+        self.place(mesh, transform, line);
+        Ok(())
+    }
+
+    /// Place `mesh` and report what was dropped.
+    fn place(&mut self, mesh: MeshData, transform: &Transform, line: Option<usize>) {
         let s = &mut self.scene;
         let m = transform.matrix();
         let flip = transform.mirrors();
@@ -347,7 +400,7 @@ impl SceneBuilder {
         s.positions
             .extend(mesh.positions.iter().map(|&p| m.transform_point3(p)));
         let start = s.indices.len() as u32;
-        let (mut nonfinite, mut degenerate) = (0usize, 0usize);
+        let (mut out_of_range, mut degenerate) = (0usize, 0usize);
         for (t, &mat) in mesh.indices.iter().zip(&mesh.tri_material) {
             let mut idx = t.map(|i| i + base_vertex);
             if flip {
@@ -356,7 +409,7 @@ impl SceneBuilder {
             let p = idx.map(|i| s.positions[i as usize]);
             if !p.iter().all(|q| q.abs().max_element() <= MAX_COORDINATE) {
                 // NaN and infinities fail the comparison too
-                nonfinite += 1;
+                out_of_range += 1;
                 continue;
             }
             let Some(n) = triangle_normal(p[0], p[1], p[2]) else {
@@ -367,16 +420,19 @@ impl SceneBuilder {
             s.normals.push(n);
             s.tri_material.push(base_material + mat);
         }
-        if nonfinite > 0 {
-            s.notes.push(format!(
-                "mesh {}: dropped {nonfinite} triangles whose placed coordinates are not finite or exceed {MAX_COORDINATE:e} in magnitude",
-                mesh.name
+        let at = crate::error::Location {
+            file: s.source.clone(),
+            line,
+        };
+        let name = crate::error::one_line(&mesh.name);
+        if out_of_range > 0 {
+            s.warnings.push(format!(
+                "{at}: mesh `{name}`: dropped {out_of_range} triangles with coordinates beyond {MAX_COORDINATE:e} or non-finite after transform"
             ));
         }
         if degenerate > 0 {
             s.notes.push(format!(
-                "mesh {}: dropped {degenerate} degenerate (zero-area) triangles",
-                mesh.name
+                "{at}: mesh `{name}`: dropped {degenerate} degenerate (zero-area) triangles"
             ));
         }
         let end = s.indices.len() as u32;
@@ -387,6 +443,16 @@ impl SceneBuilder {
         });
     }
 
+    /// Triangles placed so far.
+    pub fn triangle_count(&self) -> u64 {
+        self.scene.indices.len() as u64
+    }
+
+    /// Vertices placed so far.
+    pub fn vertex_count(&self) -> u64 {
+        self.scene.positions.len() as u64
+    }
+
     /// Mutable access to the scene being built (camera, film, defaults, lights).
     pub fn scene_mut(&mut self) -> &mut Scene {
         &mut self.scene
@@ -395,5 +461,91 @@ impl SceneBuilder {
     /// Finish.
     pub fn build(self) -> Scene {
         self.scene
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn triangle(name: &str) -> MeshData {
+        MeshData {
+            name: name.to_string(),
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            indices: vec![[0, 1, 2]],
+            tri_material: vec![0],
+            materials: vec![Material::default()],
+        }
+    }
+
+    #[test]
+    fn a_mesh_listed_past_the_triangle_limit_is_refused_at_its_line() {
+        let mut b = SceneBuilder::new(Path::new("s.toml"));
+        b.max_triangles = 3;
+        for line in 1..=3 {
+            b.add_mesh_from(triangle("t.obj"), &Transform::default(), Some(line))
+                .unwrap();
+        }
+        let e = b
+            .add_mesh_from(triangle("t.obj"), &Transform::default(), Some(4))
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "s.toml:4: mesh `t.obj` (1 triangles) would take the scene to 4 triangles (at most 3)"
+        );
+        assert_eq!(b.triangle_count(), 3, "nothing added on refusal");
+        assert_eq!(b.build().meshes.len(), 3);
+    }
+
+    #[test]
+    fn inconsistent_meshes_are_refused_not_indexed() {
+        let mut bad_index = triangle("a");
+        bad_index.indices[0][2] = 3;
+        let mut bad_material = triangle("b");
+        bad_material.tri_material[0] = 1;
+        let mut short_materials = triangle("c");
+        short_materials.tri_material.clear();
+        for mesh in [bad_index, bad_material, short_materials] {
+            let mut b = SceneBuilder::new(Path::new("s.toml"));
+            let name = mesh.name.clone();
+            let e = b.add_mesh_from(mesh, &Transform::default(), Some(2));
+            let e = e.unwrap_err().to_string();
+            assert!(e.starts_with(&format!("s.toml:2: mesh `{name}`")), "{e}");
+            assert_eq!(b.triangle_count(), 0);
+        }
+    }
+
+    #[test]
+    fn out_of_range_and_degenerate_triangles_are_reported_apart() {
+        let mut b = SceneBuilder::new(Path::new("s.toml"));
+        let mut mesh = triangle("m");
+        // a degenerate triangle (repeated corner) next to the good one
+        mesh.indices.push([0, 1, 1]);
+        mesh.tri_material.push(0);
+        b.add_mesh(mesh, &Transform::default());
+        // corners at exactly MAX_COORDINATE are inside the range
+        let far = Transform {
+            scale: Vec3::splat(MAX_COORDINATE),
+            ..Transform::default()
+        };
+        b.add_mesh(triangle("edge"), &far);
+        let beyond = Transform {
+            translate: Vec3::new(0.0, -2.0 * MAX_COORDINATE, 0.0),
+            ..Transform::default()
+        };
+        b.add_mesh(triangle("beyond"), &beyond);
+        let s = b.build();
+        assert_eq!(s.triangle_count(), 2);
+        assert_eq!(
+            s.warnings,
+            [
+                "s.toml: mesh `beyond`: dropped 1 triangles with coordinates beyond 1.8e18 or non-finite after transform"
+            ]
+        );
+        assert_eq!(
+            s.notes,
+            ["s.toml: mesh `m`: dropped 1 degenerate (zero-area) triangles"]
+        );
     }
 }

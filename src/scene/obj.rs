@@ -1,32 +1,54 @@
 //! Wavefront OBJ/MTL meshes through tobj. MTL `Kd` is the diffuse albedo and
 //! `Ke` the emitted radiance (an area light, front side only).
 //!
-//! tobj reports malformed files without line numbers, so a short validating
-//! pass runs first: it names the file and line of a non-finite or unparsable
-//! vertex, an out-of-range face index, or a missing material library.
+//! tobj reports malformed files without line numbers, and reads a few things
+//! differently from the OBJ files people have (a comment after a value is an
+//! error to it, a tab after `usemtl` loses the name, `l a b c` becomes a
+//! triangle). So each file first goes through [`prepare`]: one pass that
+//! checks every statement tobj will read, naming the file and line of the
+//! first problem (a non-finite, out-of-range ([`MAX_COORDINATE`]) or
+//! unparsable vertex, a zero `w`, an out-of-range or forward face index, a
+//! face that takes the file past [`MAX_TRIANGLES`], a bad material
+//! statement, a missing material library), and writes the lines out in the
+//! one form tobj reads as meant: comments stripped, blanks trimmed, `w`
+//! applied and vertex colours dropped, lines and points left out (they are
+//! not rendered). tobj then parses that text, so its view and the checks
+//! are the same.
 
+use super::limits::{MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
 use super::{Material, MeshData, Scene, SceneBuilder, Transform};
 use crate::error::{Error, Result};
 use crate::math::Vec3;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 /// Read `path` as one mesh (all its objects merged), with its materials.
 pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
-    let text = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let text = String::from_utf8_lossy(&text);
-    let mtllibs = validate(path, &text)?;
-    for lib in &mtllibs {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let obj = prepare(path, &String::from_utf8_lossy(&bytes), MAX_TRIANGLES)?;
+    drop(bytes);
+    // every library the file names, checked and cleaned before tobj asks
+    let mut libs: HashMap<PathBuf, String> = HashMap::new();
+    for (name, line) in &obj.mtllibs {
+        let lib = path.parent().unwrap_or(Path::new("")).join(name);
+        if libs.contains_key(name) {
+            continue;
+        }
         if !lib.is_file() {
             return Err(Error::input(
-                lib,
-                None,
+                path,
+                Some(*line),
                 format!(
-                    "cannot read material library named by {} (expected a readable .mtl file)",
-                    path.display()
+                    "cannot read material library `{}` (expected a readable .mtl file next to the OBJ)",
+                    name.display()
                 ),
             ));
         }
-        validate_mtl(lib)?;
+        let bytes = std::fs::read(&lib).map_err(|e| Error::io(&lib, e))?;
+        libs.insert(
+            name.clone(),
+            prepare_mtl(&lib, &String::from_utf8_lossy(&bytes))?,
+        );
     }
     let options = tobj::LoadOptions {
         triangulate: true,
@@ -34,19 +56,20 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, materials) = tobj::load_obj(path, &options)
-        .map_err(|e| Error::input(path, None, format!("malformed OBJ: {e}")))?;
+    let (models, materials) = tobj::load_obj_buf(&mut obj.text.as_bytes(), &options, |name| {
+        let text = libs.get(name).ok_or(tobj::LoadError::OpenFileFailed)?;
+        tobj::load_mtl_buf(&mut text.as_bytes())
+    })
+    .map_err(|e| Error::input(path, None, format!("malformed OBJ: {e}")))?;
     let tobj_materials = match materials {
         Ok(m) => m,
-        Err(e) if mtllibs.is_empty() => {
-            let _ = e;
-            Vec::new()
-        }
+        Err(_) if obj.mtllibs.is_empty() => Vec::new(),
         Err(e) => {
+            let (name, line) = &obj.mtllibs[0];
             return Err(Error::input(
-                &mtllibs[0],
-                None,
-                format!("malformed material library: {e}"),
+                path,
+                Some(*line),
+                format!("material library `{}`: malformed: {e}", name.display()),
             ));
         }
     };
@@ -57,8 +80,11 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
             .unwrap_or_default(),
         ..MeshData::default()
     };
+    let lib_file = obj.mtllibs.first().map_or(path.to_path_buf(), |(name, _)| {
+        path.parent().unwrap_or(Path::new("")).join(name)
+    });
     for m in &tobj_materials {
-        mesh.materials.push(convert_material(m, &mtllibs, path)?);
+        mesh.materials.push(convert_material(m, &lib_file)?);
     }
     let default_material = mesh.materials.len() as u32;
     mesh.materials.push(Material::default());
@@ -88,8 +114,8 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
     Ok(mesh)
 }
 
-fn convert_material(m: &tobj::Material, libs: &[PathBuf], obj: &Path) -> Result<Material> {
-    let file = libs.first().map_or(obj, |p| p.as_path());
+fn convert_material(m: &tobj::Material, file: &Path) -> Result<Material> {
+    // prepare_mtl has checked each colour line; this guards the defaults
     let colour = |name: &str, c: Option<[f32; 3]>, default: Vec3| -> Result<Vec3> {
         let v = c.map_or(default, Vec3::from);
         if !v.is_finite() || v.min_element() < 0.0 {
@@ -123,89 +149,176 @@ fn convert_material(m: &tobj::Material, libs: &[PathBuf], obj: &Path) -> Result<
     })
 }
 
-/// Check vertex lines and face indices, naming the line of the first problem.
-/// Returns the material libraries the file names, resolved next to it.
-fn validate(path: &Path, text: &str) -> Result<Vec<PathBuf>> {
-    let count = |key: &str| {
-        text.lines()
-            .filter(|l| l.split_whitespace().next() == Some(key))
-            .count() as i64
-    };
+/// A line split into its statement and the rest, comments and surrounding
+/// blanks removed.
+fn split_statement(raw: &str) -> (&str, &str) {
+    let line = raw.split('#').next().unwrap_or("").trim();
+    match line.find(char::is_whitespace) {
+        Some(i) => (&line[..i], line[i..].trim()),
+        None => (line, ""),
+    }
+}
+
+/// An OBJ file checked and rewritten for tobj.
+struct PreparedObj {
+    /// The text tobj parses, line for line the file's (so line numbers agree).
+    text: String,
+    /// The material libraries named, as written, with their lines.
+    mtllibs: Vec<(PathBuf, usize)>,
+}
+
+/// Parse `s` as a number, or say which `what` at `line` could not be.
+fn number(path: &Path, line: usize, what: &str, s: &str) -> Result<f32> {
+    s.parse::<f32>().map_err(|_| {
+        Error::input(
+            path,
+            Some(line),
+            format!("cannot parse {what} `{s}` (expected a number)"),
+        )
+    })
+}
+
+/// Check an OBJ file statement by statement and rewrite it for tobj (see the
+/// module header). Errors name `path` and the line. `max_triangles` is
+/// [`MAX_TRIANGLES`] but in unit tests.
+fn prepare(path: &Path, text: &str, max_triangles: u64) -> Result<PreparedObj> {
+    let lines: Vec<(&str, &str)> = text.lines().map(split_statement).collect();
+    let count = |key: &str| lines.iter().filter(|l| l.0 == key).count() as i64;
     // positions, texture coordinates, normals: in the file, and seen so far
     // (negative indices count back from the last one seen)
     let total = [count("v"), count("vt"), count("vn")];
+    if total[0] as u64 > MAX_VERTICES {
+        return Err(Error::input(
+            path,
+            None,
+            format!("{} vertices (at most {MAX_VERTICES} in a scene)", total[0]),
+        ));
+    }
+    const KIND: [&str; 3] = ["vertex", "texture coordinate", "normal"];
     let mut seen = [0i64; 3];
-    let mut libs = Vec::new();
-    let dir = path.parent().unwrap_or(Path::new(""));
-    for (n, line) in text.lines().enumerate() {
-        let line_no = Some(n + 1);
-        let line = line.split('#').next().unwrap_or("");
-        let mut words = line.split_whitespace();
-        match words.next() {
-            Some("v") => {
-                let coords: Vec<&str> = words.collect();
-                if coords.len() < 3 {
+    // tobj turns the faces of an `o`, `g` or `usemtl` group into a mesh when
+    // the group ends, with the vertices read so far: a positive index must
+    // not reach past the group's end. The largest one of each kind, and the
+    // line that used it, since the group began.
+    let mut reach: [Option<(i64, usize)>; 3] = [None; 3];
+    let check_reach = |reach: &mut [Option<(i64, usize)>; 3], seen: &[i64; 3]| -> Result<()> {
+        for k in 0..3 {
+            if let Some((i, line)) = reach[k].take() {
+                if i > seen[k] {
                     return Err(Error::input(
                         path,
-                        line_no,
-                        "expected three coordinates after `v`",
+                        Some(line),
+                        format!(
+                            "face {} index {i} refers past the end of its `o`/`g`/`usemtl` group (only {} defined by then)",
+                            KIND[k], seen[k]
+                        ),
                     ));
                 }
-                for c in &coords[..3] {
-                    match c.parse::<f32>() {
-                        Ok(x) if x.is_finite() => {}
-                        Ok(_) => {
-                            return Err(Error::input(
-                                path,
-                                line_no,
-                                format!(
-                                    "vertex coordinate `{c}` is not finite (expected a finite number)"
-                                ),
-                            ));
-                        }
-                        Err(_) => {
-                            return Err(Error::input(
-                                path,
-                                line_no,
-                                format!("cannot parse vertex coordinate `{c}` (expected a number)"),
-                            ));
-                        }
+            }
+        }
+        Ok(())
+    };
+    // triangles after fan triangulation: a face of n vertices makes n - 2
+    let mut triangles = 0u64;
+    let mut mtllibs = Vec::new();
+    let mut out = String::with_capacity(text.len());
+    for (n, &(key, rest)) in lines.iter().enumerate() {
+        let line_no = n + 1;
+        let err = |msg: String| Err(Error::input(path, Some(line_no), msg));
+        match key {
+            "v" => {
+                let values: Vec<&str> = rest.split_whitespace().collect();
+                if !matches!(values.len(), 3 | 4 | 6) {
+                    return err(format!(
+                        "expected `v x y z`, `v x y z w` or `v x y z r g b`, got {} values",
+                        values.len()
+                    ));
+                }
+                let mut p = [0f32; 3];
+                for (c, s) in p.iter_mut().zip(&values) {
+                    *c = number(path, line_no, "vertex coordinate", s)?;
+                }
+                // tobj divides by w, in f32, as here
+                if values.len() == 4 {
+                    let w = number(path, line_no, "vertex weight w", values[3])?;
+                    if !w.is_finite() || w == 0.0 {
+                        return err(format!(
+                            "vertex weight w = `{}` (expected a finite, non-zero number)",
+                            values[3]
+                        ));
+                    }
+                    for c in &mut p {
+                        *c /= w;
+                    }
+                }
+                let over_w = if values.len() == 4 {
+                    format!(" divided by w = `{}`", values[3])
+                } else {
+                    String::new()
+                };
+                for (c, s) in p.iter().zip(&values) {
+                    if c.is_nan() || c.is_infinite() {
+                        return err(format!(
+                            "vertex coordinate `{s}`{over_w} is not finite (expected a finite number)"
+                        ));
+                    }
+                    if c.abs() > MAX_COORDINATE {
+                        return err(format!(
+                            "vertex coordinate `{s}`{over_w} is beyond +-{MAX_COORDINATE:e} (expected a number within Embree's range)"
+                        ));
                     }
                 }
                 seen[0] += 1;
+                if values.len() == 3 {
+                    out.push_str("v ");
+                    out.push_str(rest);
+                } else {
+                    // `{}` prints the shortest text that reads back to the same f32
+                    out.push_str(&format!("v {} {} {}", p[0], p[1], p[2]));
+                }
             }
-            Some("vt") => seen[1] += 1,
-            Some("vn") => seen[2] += 1,
-            Some("f") => {
-                let verts: Vec<&str> = words.collect();
+            "vt" | "vn" => {
+                let (k, want) = if key == "vt" { (1, 2) } else { (2, 3) };
+                let values: Vec<&str> = rest.split_whitespace().take(want).collect();
+                if values.len() < want {
+                    return err(format!(
+                        "expected {want} numbers after `{key}`, got {}",
+                        values.len()
+                    ));
+                }
+                for s in values {
+                    number(path, line_no, KIND[k], s)?;
+                }
+                seen[k] += 1;
+                out.push_str(key);
+                out.push(' ');
+                out.push_str(rest);
+            }
+            "f" => {
+                let verts: Vec<&str> = rest.split_whitespace().collect();
                 if verts.len() < 3 {
-                    return Err(Error::input(
-                        path,
-                        line_no,
-                        "a face needs at least three vertices",
+                    return err("a face needs at least three vertices".into());
+                }
+                triangles += verts.len() as u64 - 2;
+                if triangles > max_triangles {
+                    return err(format!(
+                        "this face takes the file past {max_triangles} triangles (the scene limit)"
                     ));
                 }
                 for v in verts {
                     let parts: Vec<&str> = v.split('/').collect();
                     if parts.len() > 3 || parts[0].is_empty() {
-                        return Err(Error::input(
-                            path,
-                            line_no,
-                            format!(
-                                "cannot parse face vertex `{v}` (expected v, v/vt, v//vn or v/vt/vn)"
-                            ),
+                        return err(format!(
+                            "cannot parse face vertex `{v}` (expected v, v/vt, v//vn or v/vt/vn)"
                         ));
                     }
-                    const KIND: [&str; 3] = ["vertex", "texture coordinate", "normal"];
                     for (k, part) in parts.iter().enumerate() {
                         if part.is_empty() {
                             continue;
                         }
                         let Ok(i) = part.parse::<i64>() else {
-                            return Err(Error::input(
-                                path,
-                                line_no,
-                                format!("cannot parse face vertex `{v}` (expected an index)"),
+                            return err(format!(
+                                "cannot parse face vertex `{v}` (expected an index)"
                             ));
                         };
                         let ok = if i > 0 {
@@ -214,55 +327,105 @@ fn validate(path: &Path, text: &str) -> Result<Vec<PathBuf>> {
                             i < 0 && seen[k] + i >= 0
                         };
                         if !ok {
-                            return Err(Error::input(
-                                path,
-                                line_no,
-                                format!(
-                                    "face {} index {i} out of range (the file has {} of them)",
-                                    KIND[k], total[k]
-                                ),
+                            return err(format!(
+                                "face {} index {i} out of range (the file has {} of them)",
+                                KIND[k], total[k]
                             ));
+                        }
+                        if i > seen[k] && reach[k].is_none_or(|(r, _)| i > r) {
+                            reach[k] = Some((i, line_no));
                         }
                     }
                 }
+                out.push_str("f ");
+                out.push_str(rest);
             }
-            Some("mtllib") => {
-                let rest = line.trim_start()["mtllib".len()..].trim();
-                if !rest.is_empty() {
-                    libs.push(dir.join(rest));
+            // lines and points are not rendered
+            "l" | "p" => {}
+            "o" | "g" | "usemtl" => {
+                check_reach(&mut reach, &seen)?;
+                if key == "usemtl" && rest.is_empty() {
+                    return err("expected a material name after `usemtl`".into());
                 }
+                out.push_str(key);
+                out.push(' ');
+                out.push_str(rest);
+            }
+            "mtllib" => {
+                if rest.is_empty() {
+                    return err("expected a file name after `mtllib`".into());
+                }
+                mtllibs.push((PathBuf::from(rest), line_no));
+                out.push_str("mtllib ");
+                out.push_str(rest);
+            }
+            // `s`, `#`, blank lines and statements tobj ignores
+            _ => {}
+        }
+        out.push('\n');
+    }
+    check_reach(&mut reach, &seen)?;
+    Ok(PreparedObj { text: out, mtllibs })
+}
+
+/// Check a material library statement by statement, as tobj will read it
+/// (tobj 4.0 panics on a colour line with fewer than three values, found by
+/// `tests/fuzz_loaders.rs`), and rewrite it the same way as [`prepare`].
+/// `Kd` must lie in `[0, 1]` and `Ke` be finite and non-negative.
+fn prepare_mtl(lib: &Path, text: &str) -> Result<String> {
+    let mut out = String::with_capacity(text.len());
+    for (n, raw) in text.lines().enumerate() {
+        let err = |msg: String| Err(Error::input(lib, Some(n + 1), msg));
+        let (key, rest) = split_statement(raw);
+        let first = rest.split_whitespace().next();
+        match key {
+            "newmtl" if rest.is_empty() => {
+                return err("expected a material name after `newmtl`".into());
+            }
+            "Ka" | "Kd" | "Ks" | "Ke" | "Tf" => {
+                let values: Vec<&str> = rest.split_whitespace().take(3).collect();
+                let c: Vec<f32> = values.iter().filter_map(|v| v.parse().ok()).collect();
+                if c.len() < 3 {
+                    return err(format!(
+                        "expected three numbers after `{key}`, got `{}`",
+                        values.join(" ")
+                    ));
+                }
+                let c = Vec3::from_slice(&c);
+                let what = match key {
+                    "Kd" => "a diffuse albedo, each channel in [0, 1]",
+                    "Ke" => "an emitted radiance, finite and non-negative",
+                    _ => "",
+                };
+                let bad = !c.is_finite()
+                    || c.min_element() < 0.0
+                    || (key == "Kd" && c.max_element() > 1.0);
+                if !what.is_empty() && bad {
+                    return err(format!("{key} {c}: expected {what}"));
+                }
+            }
+            "Ns" | "Ni" | "d" if first.is_none_or(|v| v.parse::<f32>().is_err()) => {
+                return err(format!("expected a number after `{key}`"));
+            }
+            "illum" if first.is_none_or(|v| v.parse::<u8>().is_err()) => {
+                return err("expected an illumination model (0 to 255) after `illum`".into());
+            }
+            "map_Ka" | "map_Kd" | "map_Ks" | "map_Bump" | "map_bump" | "map_Ns" | "map_ns"
+            | "map_NS" | "bump" | "map_d"
+                if rest.is_empty() =>
+            {
+                return err(format!("expected a file name after `{key}`"));
             }
             _ => {}
         }
-    }
-    Ok(libs)
-}
-
-/// Check the colour lines of a material library before tobj reads it:
-/// tobj 4.0 panics on a `Kd`, `Ka`, `Ks`, `Ke` or `Tf` line with fewer than
-/// three values (found by `tests/fuzz_loaders.rs`), so those get a clear
-/// error with the line instead.
-fn validate_mtl(lib: &Path) -> Result<()> {
-    let bytes = std::fs::read(lib).map_err(|e| Error::io(lib, e))?;
-    let text = String::from_utf8_lossy(&bytes);
-    for (n, line) in text.lines().enumerate() {
-        let line = line.split('#').next().unwrap_or("");
-        let mut words = line.split_whitespace();
-        if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke" | "Tf")) = words.next() {
-            let values: Vec<&str> = words.take(3).collect();
-            if values.len() < 3 || values.iter().any(|v| v.parse::<f32>().is_err()) {
-                return Err(Error::input(
-                    lib,
-                    Some(n + 1),
-                    format!(
-                        "expected three numbers after `{key}`, got `{}`",
-                        values.join(" ")
-                    ),
-                ));
-            }
+        if !key.is_empty() {
+            out.push_str(key);
+            out.push(' ');
+            out.push_str(rest);
         }
+        out.push('\n');
     }
-    Ok(())
+    Ok(out)
 }
 
 /// A bare `.obj` as a scene: framed from its bounds, lit by a uniform white
@@ -270,7 +433,7 @@ fn validate_mtl(lib: &Path) -> Result<()> {
 pub fn load_bare(path: &Path) -> Result<Scene> {
     let mesh = load_obj_mesh(path)?;
     let mut b = SceneBuilder::new(path);
-    b.add_mesh(mesh, &Transform::default());
+    b.add_mesh_from(mesh, &Transform::default(), None)?;
     let mut scene = b.build();
     scene.camera = Scene::framing_camera(&scene.bounds());
     scene
@@ -283,4 +446,113 @@ pub fn load_bare(path: &Path) -> Result<Scene> {
         );
     }
     Ok(scene)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn load(obj: &str, mtl: &str) -> Result<MeshData> {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("m.obj"), obj).unwrap();
+        std::fs::write(dir.path().join("m.mtl"), mtl).unwrap();
+        load_obj_mesh(&dir.path().join("m.obj"))
+    }
+
+    #[test]
+    fn prepared_text_keeps_lines_and_says_one_thing_per_statement() {
+        let text = "# head\r\n  v 1 2 3 # c\nv 2 4 6 2\nv\t1 1 1 0.5 0.5 0.5\nl 1 2 3\np 1\n\
+                    usemtl\tred  # x\nf 1 2 3 # tail\ns off\n";
+        let p = prepare(Path::new("m.obj"), text, 10).unwrap();
+        assert_eq!(
+            p.text, "\nv 1 2 3\nv 1 2 3\nv 1 1 1\n\n\nusemtl red\nf 1 2 3\n\n",
+            "comments and blanks gone, w applied, colours, lines and points dropped"
+        );
+        assert_eq!(p.text.lines().count(), text.lines().count());
+    }
+
+    #[test]
+    fn the_triangle_limit_stops_at_the_face_that_crosses_it() {
+        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 2 0\nf 1 2 3 4 5\nf 1 2 3\nf 1 3 4\n";
+        // the pentagon makes 3 triangles, then 4, then 5
+        assert!(prepare(Path::new("m.obj"), text, 4).is_err_and(|e| {
+            e.to_string()
+                .starts_with("m.obj:8: this face takes the file past 4 triangles")
+        }));
+        assert!(prepare(Path::new("m.obj"), text, 5).is_ok());
+    }
+
+    #[test]
+    fn tobj_reads_what_the_checks_read() {
+        let quad = "v 0 0 0\nv 2 0 0 2\nv 1 1 0\nv 0 1 0\n";
+        // trailing comments, a tab after usemtl, a leading blank before
+        // mtllib: tobj alone failed or lost the material on each
+        let m = load(
+            &format!(" mtllib m.mtl\n{quad}usemtl\tred\nf 1 2 3 # first\nl 1 2 3\nf 1 3 4\n"),
+            "newmtl red # c\nKd 0.5 0 0\n",
+        )
+        .unwrap();
+        assert_eq!(m.indices.len(), 2, "`l` is not a triangle");
+        assert_eq!(m.positions[1], Vec3::X, "w divides the vertex");
+        assert_eq!(m.materials[0].name, "red");
+        assert_eq!(m.materials[0].albedo, Vec3::new(0.5, 0.0, 0.0));
+        assert_eq!(m.tri_material, [0, 0]);
+    }
+
+    #[test]
+    fn bad_statements_name_their_line() {
+        let v3 = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+        for (obj, mtl, want) in [
+            ("v 0 0 0 0\n", "", "m.obj:1: vertex weight w = `0`"),
+            (
+                "v 1 0 0 1e-40\n",
+                "",
+                "m.obj:1: vertex coordinate `1` divided by w",
+            ),
+            (
+                "v 0 0 2e18\n",
+                "",
+                "m.obj:1: vertex coordinate `2e18` is beyond",
+            ),
+            ("v 0 0 0 1 1\n", "", "m.obj:1: expected `v x y z`"),
+            ("vt 0\n", "", "m.obj:1: expected 2 numbers after `vt`"),
+            ("vn 0 x 1\n", "", "m.obj:1: cannot parse normal `x`"),
+            ("usemtl\n", "", "m.obj:1: expected a material name"),
+            ("mtllib\n", "", "m.obj:1: expected a file name"),
+            (
+                "o a\nf 1 2 3\ng b\nv 0 0 0\nv 0 0 0\nv 0 0 0\n",
+                "",
+                "m.obj:2: face vertex index 3",
+            ),
+            (
+                &format!("mtllib m.mtl\n{v3}"),
+                "newmtl\n",
+                "m.mtl:1: expected a material name",
+            ),
+            (
+                &format!("mtllib m.mtl\n{v3}"),
+                "newmtl a\nKe 1 -1 1\n",
+                "m.mtl:2: Ke",
+            ),
+            (
+                &format!("mtllib m.mtl\n{v3}"),
+                "newmtl a\nNs\n",
+                "m.mtl:2: expected a number",
+            ),
+            (
+                &format!("mtllib m.mtl\n{v3}"),
+                "newmtl a\nillum 300\n",
+                "m.mtl:2: expected an illumination",
+            ),
+            (
+                &format!("mtllib m.mtl\n{v3}"),
+                "newmtl a\nmap_Kd\n",
+                "m.mtl:2: expected a file name",
+            ),
+        ] {
+            let e = load(obj, mtl).unwrap_err().to_string();
+            let at = e.find("m.obj:").or_else(|| e.find("m.mtl:")).unwrap_or(0);
+            assert!(e[at..].starts_with(want), "{obj:?} {mtl:?}: {e}");
+        }
+    }
 }

@@ -22,8 +22,7 @@ use super::{Material, MeshData};
 use crate::math::Vec3;
 use crate::sampler::Sampler;
 
-/// Largest accepted triangle count (about 3.2 GiB of vertices and indices).
-pub const MAX_TRIANGLES: u64 = 100_000_000;
+pub use super::limits::MAX_TRIANGLES;
 
 /// A procedural shape.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,7 +64,31 @@ impl Noise {
     }
 }
 
-/// Generate a mesh with about `triangles` triangles (at least a few dozen).
+/// The grid resolution for about `triangles` triangles: rings of the sphere
+/// (with twice as many segments), or cells along a side of the terrain.
+fn grid(shape: Shape, triangles: u64) -> u32 {
+    let t = triangles.min(MAX_TRIANGLES) as f64;
+    match shape {
+        // 4 r (r - 1) triangles for r rings and 2 r segments
+        Shape::Sphere => (((1.0 + (1.0 + t).sqrt()) / 2.0).ceil() as u32).max(3),
+        // 2 n^2 triangles
+        Shape::Terrain => ((t / 2.0).sqrt().ceil() as u32).max(2),
+    }
+}
+
+/// Exact triangle and vertex counts of [`generate`]`(shape, triangles, ..)`,
+/// so that a loader can check them against the scene limits before
+/// generating anything.
+pub fn counts(shape: Shape, triangles: u64) -> (u64, u64) {
+    let g = grid(shape, triangles) as u64;
+    match shape {
+        Shape::Sphere => (4 * g * (g - 1), 2 + (g - 1) * 2 * g),
+        Shape::Terrain => (2 * g * g, (g + 1) * (g + 1)),
+    }
+}
+
+/// Generate a mesh with about `triangles` triangles (at least a few dozen;
+/// requests beyond [`MAX_TRIANGLES`] are treated as [`MAX_TRIANGLES`]).
 pub fn generate(
     shape: Shape,
     triangles: u64,
@@ -82,8 +105,7 @@ pub fn generate(
     };
     match shape {
         Shape::Sphere => {
-            // 4 r (r - 1) triangles for r rings and 2 r segments
-            let r = (((1.0 + (1.0 + triangles as f64).sqrt()) / 2.0).ceil() as u32).max(3);
+            let r = grid(shape, triangles);
             let s = 2 * r;
             let at = |theta: f32, phi: f32| {
                 let d = Vec3::new(
@@ -123,7 +145,7 @@ pub fn generate(
             }
         }
         Shape::Terrain => {
-            let n = ((triangles as f64 / 2.0).sqrt().ceil() as u32).max(2);
+            let n = grid(shape, triangles);
             for i in 0..=n {
                 for j in 0..=n {
                     let x = -1.0 + 2.0 * j as f32 / n as f32;
@@ -169,6 +191,13 @@ mod tests {
                     Shape::Terrain => Vec3::Y,
                 };
                 assert!(nrm.dot(outward) > 0.0, "{shape:?}: triangle faces inward");
+            }
+        }
+        for shape in [Shape::Sphere, Shape::Terrain] {
+            for n in [0, 1, 7, 100, 12_345] {
+                let m = generate(shape, n, 0.1, 3, "t", Material::default());
+                let want = (m.indices.len() as u64, m.positions.len() as u64);
+                assert_eq!(counts(shape, n), want, "{shape:?} {n}");
             }
         }
         let a = generate(Shape::Sphere, 1000, 0.2, 1, "a", Material::default());

@@ -1,5 +1,6 @@
 //! The TOML scene format. The schema is fixed (other scripts write it); unknown
-//! keys are errors naming the key, the file and the line.
+//! keys are errors naming the key, the file and the line, and every value is
+//! checked against [`super::limits`] before anything is allocated for it.
 //!
 //! ```toml
 //! [camera]
@@ -27,17 +28,19 @@
 //! radiance = [1.0, 1.0, 1.0]  # or one number
 //! ```
 
-use super::procedural::{self, MAX_TRIANGLES, Shape};
+use super::limits::{self, MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
+use super::procedural::{self, Shape};
 use super::{
-    CameraDesc, MAX_PIXELS, MAX_RESOLUTION, Material, RenderDefaults, Scene, SceneBuilder,
-    Transform, load_obj_mesh,
+    CameraDesc, Material, MeshData, RenderDefaults, Scene, SceneBuilder, Transform, load_obj_mesh,
 };
 use crate::error::{Error, Result};
 use crate::math::Vec3;
 use serde::Deserialize;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
+use std::collections::HashMap;
 use std::fmt;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use toml::Spanned;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -58,7 +61,7 @@ struct SceneFile {
 struct ProceduralToml {
     #[serde(rename = "type")]
     kind: String,
-    triangles: u64,
+    triangles: Spanned<u64>,
     #[serde(default = "default_displacement")]
     displacement: f32,
     #[serde(default)]
@@ -93,15 +96,15 @@ fn default_fov() -> f32 {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct FilmToml {
-    resolution: [u64; 2],
+    resolution: Spanned<[u64; 2]>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RenderToml {
-    spp: Option<u32>,
-    max_depth: Option<u32>,
-    light_samples: Option<u32>,
+    spp: Option<Spanned<u64>>,
+    max_depth: Option<Spanned<u64>>,
+    light_samples: Option<Spanned<u64>>,
     seed: Option<u64>,
 }
 
@@ -176,22 +179,37 @@ impl<'de> Deserialize<'de> for Rgb {
 }
 
 /// Line (1-based) of byte `offset` in `text`.
+/// (Counted in bytes: an offset inside a multi-byte character cannot panic.)
 fn line_of(text: &str, offset: usize) -> usize {
-    text[..offset.min(text.len())]
-        .bytes()
-        .filter(|&b| b == b'\n')
+    let bytes = text.as_bytes();
+    bytes[..offset.min(bytes.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
         .count()
         + 1
 }
 
-/// Line of the `index`-th `[[table]]` header named `name`, for messages.
-fn table_line(text: &str, name: &str, index: usize) -> Option<usize> {
+/// Lines (1-based) of the `[[table]]` headers named `name`, in order, for
+/// messages. One pass over the text: a scene may list many tables.
+fn table_lines(text: &str, name: &str) -> Vec<usize> {
     let header = format!("[[{name}]]");
     text.lines()
         .enumerate()
         .filter(|(_, l)| l.trim_start().starts_with(&header))
-        .nth(index)
         .map(|(n, _)| n + 1)
+        .collect()
+}
+
+/// Check a spanned integer with `check` (from [`limits`]); errors at its line.
+fn check_spanned<T: Copy + Into<u64>>(
+    path: &Path,
+    text: &str,
+    v: &Spanned<T>,
+    check: fn(u64) -> std::result::Result<(), String>,
+) -> Result<T> {
+    let value = *v.get_ref();
+    check(value.into()).map_err(|m| Error::input(path, Some(line_of(text, v.span().start)), m))?;
+    Ok(value)
 }
 
 fn check_vec(path: &Path, line: Option<usize>, what: &str, v: Vec3) -> Result<Vec3> {
@@ -204,6 +222,19 @@ fn check_vec(path: &Path, line: Option<usize>, what: &str, v: Vec3) -> Result<Ve
             format!("{what} must be finite, got {v}"),
         ))
     }
+}
+
+/// A camera position: finite and within Embree's range.
+fn check_point(path: &Path, line: Option<usize>, what: &str, p: [f32; 3]) -> Result<Vec3> {
+    let v = check_vec(path, line, what, Vec3::from(p))?;
+    if v.abs().max_element() > MAX_COORDINATE {
+        return Err(Error::input(
+            path,
+            line,
+            format!("{what} must be within +-{MAX_COORDINATE:e} on every axis, got {v}"),
+        ));
+    }
+    Ok(v)
 }
 
 fn check_colour(path: &Path, line: Option<usize>, what: &str, c: Rgb) -> Result<Vec3> {
@@ -299,8 +330,11 @@ pub fn load(path: &Path) -> Result<Scene> {
     let dir = path.parent().unwrap_or(Path::new(""));
     let mut b = SceneBuilder::new(path);
 
+    let mesh_lines = table_lines(&text, "mesh");
+    // a file listed again is parsed once
+    let mut loaded: HashMap<PathBuf, MeshData> = HashMap::new();
     for (i, m) in file.mesh.iter().enumerate() {
-        let line = table_line(&text, "mesh", i);
+        let line = mesh_lines.get(i).copied();
         let mesh_path = dir.join(&m.file);
         let ext = mesh_path
             .extension()
@@ -313,6 +347,16 @@ pub fn load(path: &Path) -> Result<Scene> {
                 format!("mesh file `{}`: unknown format (expected .obj)", m.file),
             ));
         }
+        if mesh_path.is_dir() {
+            return Err(Error::input(
+                path,
+                line,
+                format!(
+                    "mesh file `{}` is a directory (expected an .obj file)",
+                    m.file
+                ),
+            ));
+        }
         if !mesh_path.is_file() {
             return Err(Error::input(
                 path,
@@ -323,18 +367,26 @@ pub fn load(path: &Path) -> Result<Scene> {
                 ),
             ));
         }
-        let mut mesh = load_obj_mesh(&mesh_path)?;
+        let mut mesh = match loaded.get(&mesh_path) {
+            Some(mesh) => mesh.clone(),
+            None => {
+                let mesh = load_obj_mesh(&mesh_path)?;
+                loaded.insert(mesh_path.clone(), mesh.clone());
+                mesh
+            }
+        };
         if let Some(over) = &m.material {
             for mat in &mut mesh.materials {
                 apply_material(path, line, over, mat)?;
             }
         }
         let transform = parse_transform(path, line, m.transform.as_ref())?;
-        b.add_mesh(mesh, &transform);
+        b.add_mesh_from(mesh, &transform, line)?;
     }
 
+    let procedural_lines = table_lines(&text, "procedural");
     for (i, p) in file.procedural.iter().enumerate() {
-        let line = table_line(&text, "procedural", i);
+        let line = procedural_lines.get(i).copied();
         let shape = match p.kind.as_str() {
             "sphere" => Shape::Sphere,
             "terrain" => Shape::Terrain,
@@ -348,13 +400,24 @@ pub fn load(path: &Path) -> Result<Scene> {
                 ));
             }
         };
-        if p.triangles == 0 || p.triangles > MAX_TRIANGLES {
+        let triangles = *p.triangles.get_ref();
+        let triangles_line = Some(line_of(&text, p.triangles.span().start));
+        if triangles == 0 || triangles > MAX_TRIANGLES {
             return Err(Error::input(
                 path,
-                line,
+                triangles_line,
+                format!("triangles = {triangles} out of range (1..={MAX_TRIANGLES})"),
+            ));
+        }
+        // checked before generating: nothing is allocated for a refused request
+        let (tris, verts) = procedural::counts(shape, triangles);
+        let (scene_tris, scene_verts) = (b.triangle_count() + tris, b.vertex_count() + verts);
+        if scene_tris > MAX_TRIANGLES || scene_verts > MAX_VERTICES {
+            return Err(Error::input(
+                path,
+                triangles_line,
                 format!(
-                    "triangles = {} out of range (1..={MAX_TRIANGLES})",
-                    p.triangles
+                    "triangles = {triangles} ({tris} generated) would take the scene to {scene_tris} triangles and {scene_verts} vertices (at most {MAX_TRIANGLES} and {MAX_VERTICES})"
                 ),
             ));
         }
@@ -375,16 +438,16 @@ pub fn load(path: &Path) -> Result<Scene> {
         if let Some(over) = &p.material {
             apply_material(path, line, over, &mut material)?;
         }
-        let name = format!("procedural {} #{i} ({} triangles)", p.kind, p.triangles);
-        let mesh =
-            procedural::generate(shape, p.triangles, p.displacement, p.seed, &name, material);
         let transform = parse_transform(path, line, p.transform.as_ref())?;
-        b.add_mesh(mesh, &transform);
+        let name = format!("procedural {} #{i} ({tris} triangles)", p.kind);
+        let mesh = procedural::generate(shape, triangles, p.displacement, p.seed, &name, material);
+        b.add_mesh_from(mesh, &transform, line)?;
     }
 
     let scene = b.scene_mut();
+    let light_lines = table_lines(&text, "light");
     for (i, l) in file.light.iter().enumerate() {
-        let line = table_line(&text, "light", i);
+        let line = light_lines.get(i).copied();
         match l.kind.as_str() {
             "environment" => {
                 let r = l.radiance.ok_or_else(|| {
@@ -404,32 +467,24 @@ pub fn load(path: &Path) -> Result<Scene> {
     }
 
     if let Some(f) = &file.film {
-        let [w, h] = f.resolution;
-        if w == 0
-            || h == 0
-            || w > MAX_RESOLUTION as u64
-            || h > MAX_RESOLUTION as u64
-            || w * h > MAX_PIXELS
-        {
-            let line = text
-                .lines()
-                .position(|l| l.trim_start().starts_with("resolution"))
-                .map(|n| n + 1);
-            return Err(Error::input(
-                path,
-                line,
-                format!(
-                    "resolution {w} x {h} out of range (each side 1..={MAX_RESOLUTION}, at most {MAX_PIXELS} pixels)"
-                ),
-            ));
-        }
+        let [w, h] = *f.resolution.get_ref();
+        limits::check_resolution(w, h)
+            .map_err(|m| Error::input(path, Some(line_of(&text, f.resolution.span().start)), m))?;
         scene.resolution = [w as u32, h as u32];
     }
     let mut render = RenderDefaults::default();
     if let Some(r) = &file.render {
-        render.spp = r.spp.unwrap_or(render.spp);
-        render.max_depth = r.max_depth.unwrap_or(render.max_depth);
-        render.light_samples = r.light_samples.unwrap_or(render.light_samples);
+        // each fits in u32 once its limit holds
+        if let Some(v) = &r.spp {
+            render.spp = check_spanned(path, &text, v, limits::check_spp)? as u32;
+        }
+        if let Some(v) = &r.max_depth {
+            render.max_depth = check_spanned(path, &text, v, limits::check_max_depth)? as u32;
+        }
+        if let Some(v) = &r.light_samples {
+            render.light_samples =
+                check_spanned(path, &text, v, limits::check_light_samples)? as u32;
+        }
         render.seed = r.seed.unwrap_or(render.seed);
     }
     scene.render = render;
@@ -439,8 +494,8 @@ pub fn load(path: &Path) -> Result<Scene> {
                 .lines()
                 .position(|l| l.trim() == "[camera]")
                 .map(|n| n + 1);
-            let origin = check_vec(path, line, "camera.origin", Vec3::from(c.origin))?;
-            let target = check_vec(path, line, "camera.target", Vec3::from(c.target))?;
+            let origin = check_point(path, line, "camera.origin", c.origin)?;
+            let target = check_point(path, line, "camera.target", c.target)?;
             let up = check_vec(path, line, "camera.up", Vec3::from(c.up))?;
             let view = target - origin;
             if view.length() == 0.0 || view.cross(up).length() == 0.0 {
@@ -482,6 +537,8 @@ mod tests {
     fn line_numbers() {
         assert_eq!(line_of("a\nb\nc", 0), 1);
         assert_eq!(line_of("a\nb\nc", 2), 2);
-        assert_eq!(table_line("[[mesh]]\nx=1\n[[mesh]]\n", "mesh", 1), Some(3));
+        assert_eq!(line_of("\u{e9}\n\u{e9}", 1), 1, "inside a character");
+        assert_eq!(line_of("a\n", 99), 2, "past the end");
+        assert_eq!(table_lines("[[mesh]]\nx=1\n[[mesh]]\n", "mesh"), vec![1, 3]);
     }
 }
