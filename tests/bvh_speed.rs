@@ -52,10 +52,7 @@ fn bvh_speed_on_displaced_sphere() {
         "sphere",
         Material::default(),
     );
-    let soup = TriangleSoup {
-        positions: &mesh.positions,
-        indices: &mesh.indices,
-    };
+    let soup = TriangleSoup::triangles(&mesh.positions, &mesh.indices);
     let mut s = Sampler::new(42, 0, 0);
     // from outside towards random points inside the sphere: "primary" rays
     let outside: Vec<Ray> = (0..n_rays)

@@ -36,10 +36,7 @@ impl Soup {
         self.indices.push([n, n + 1, n + 2]);
     }
     fn soup(&self) -> TriangleSoup<'_> {
-        TriangleSoup {
-            positions: &self.positions,
-            indices: &self.indices,
-        }
+        TriangleSoup::triangles(&self.positions, &self.indices)
     }
     fn build(&self, b: Backend) -> Box<dyn Accelerator> {
         accel::build(b, self.soup(), AccelOptions::default()).unwrap()

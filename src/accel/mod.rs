@@ -33,11 +33,12 @@ use std::str::FromStr;
 pub struct Hit {
     /// Distance along the ray (the ray's direction is unit length).
     pub t: f32,
-    /// Index of the triangle hit.
+    /// Index of the primitive hit (see [`TriangleSoup`] for the numbering).
     pub prim: u32,
-    /// Barycentric weight of the triangle's second vertex.
+    /// Barycentric weight of the triangle's second vertex (0 for a sphere,
+    /// whose hit point shading rebuilds from `t`).
     pub u: f32,
-    /// Barycentric weight of the triangle's third vertex.
+    /// Barycentric weight of the triangle's third vertex (0 for a sphere).
     pub v: f32,
 }
 
@@ -54,14 +55,43 @@ pub trait Accelerator: Send + Sync {
     fn memory_bytes(&self) -> usize;
 }
 
-/// Triangles as every backend receives them: a shared vertex buffer and one
-/// index triple per triangle.
+/// The primitives every backend receives: triangles (a shared vertex buffer
+/// and one index triple per triangle) and analytic spheres. Primitive ids
+/// number the triangles `0..indices.len()` first, then the spheres, so sphere
+/// `i` is primitive `indices.len() + i`.
 #[derive(Debug, Clone, Copy)]
 pub struct TriangleSoup<'a> {
     /// Vertex positions.
     pub positions: &'a [Vec3],
     /// Vertex indices of each triangle, counter-clockwise seen from the front.
     pub indices: &'a [[u32; 3]],
+    /// Analytic spheres.
+    pub spheres: &'a [Sphere],
+}
+
+impl<'a> TriangleSoup<'a> {
+    /// Triangles only.
+    pub fn triangles(positions: &'a [Vec3], indices: &'a [[u32; 3]]) -> Self {
+        TriangleSoup {
+            positions,
+            indices,
+            spheres: &[],
+        }
+    }
+
+    /// Number of primitives (triangles and spheres).
+    pub fn primitive_count(&self) -> usize {
+        self.indices.len() + self.spheres.len()
+    }
+}
+
+/// An analytic sphere. Its outward normal is the front side.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sphere {
+    /// Centre.
+    pub center: Vec3,
+    /// Radius, `> 0`.
+    pub radius: f32,
 }
 
 /// Backend choice (`--accel`).

@@ -188,10 +188,7 @@ impl Scene {
 
     /// The triangles as a backend receives them.
     pub fn soup(&self) -> crate::accel::TriangleSoup<'_> {
-        crate::accel::TriangleSoup {
-            positions: &self.positions,
-            indices: &self.indices,
-        }
+        crate::accel::TriangleSoup::triangles(&self.positions, &self.indices)
     }
 
     /// Whether any material emits.

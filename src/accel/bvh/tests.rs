@@ -23,10 +23,7 @@ impl Soup {
     }
 
     fn soup(&self) -> TriangleSoup<'_> {
-        TriangleSoup {
-            positions: &self.p,
-            indices: &self.i,
-        }
+        TriangleSoup::triangles(&self.p, &self.i)
     }
 
     fn bvh(&self, quality: BvhQuality) -> Bvh {

@@ -10,7 +10,7 @@ use crate::math::Vec3;
 
 fn build(positions: &[Vec3], indices: &[[u32; 3]], robust: bool) -> EmbreeAccel {
     EmbreeAccel::new(
-        TriangleSoup { positions, indices },
+        TriangleSoup::triangles(positions, indices),
         AccelOptions {
             robust,
             ..AccelOptions::default()
@@ -156,10 +156,7 @@ fn scene_flags_follow_the_robust_option() {
 #[test]
 fn builds_through_the_backend_switch() {
     let (p, i) = two_triangles();
-    let soup = TriangleSoup {
-        positions: &p,
-        indices: &i,
-    };
+    let soup = TriangleSoup::triangles(&p, &i);
     let accel = crate::accel::build(crate::accel::Backend::Embree, soup, AccelOptions::default())
         .expect("Embree builds");
     assert_eq!(accel.name(), "embree");
@@ -170,10 +167,7 @@ fn builds_through_the_backend_switch() {
 fn out_of_range_index_is_an_error() {
     let (p, _) = two_triangles();
     let err = EmbreeAccel::new(
-        TriangleSoup {
-            positions: &p,
-            indices: &[[0, 1, 2], [3, 4, 6]],
-        },
+        TriangleSoup::triangles(&p, &[[0, 1, 2], [3, 4, 6]]),
         AccelOptions::default(),
     )
     .expect_err("vertex 6 does not exist");
@@ -189,10 +183,7 @@ fn out_of_range_index_is_an_error() {
 #[test]
 fn bad_device_config_is_an_error() {
     let (p, i) = two_triangles();
-    let soup = TriangleSoup {
-        positions: &p,
-        indices: &i,
-    };
+    let soup = TriangleSoup::triangles(&p, &i);
     // Embree 3 ignores unknown tokens and ISAs, but not a malformed number.
     // (It fails while parsing, before registering global state; a device
     // that fails later, e.g. on `tessellation_cache_size=-5`, leaks global
@@ -305,10 +296,7 @@ fn agrees_with_naive_on_random_rays() {
         }
         indices.push([3 * k, 3 * k + 1, 3 * k + 2]);
     }
-    let soup = TriangleSoup {
-        positions: &positions,
-        indices: &indices,
-    };
+    let soup = TriangleSoup::triangles(&positions, &indices);
     let naive = Naive::new(soup);
     let embree = EmbreeAccel::new(soup, AccelOptions::default()).expect("builds");
 
@@ -514,10 +502,7 @@ fn memory_monitor_counts_the_build() {
         ]);
         indices.push([3 * i, 3 * i + 1, 3 * i + 2]);
     }
-    let soup = TriangleSoup {
-        positions: &positions,
-        indices: &indices,
-    };
+    let soup = TriangleSoup::triangles(&positions, &indices);
     let acc = EmbreeAccel::new(soup, AccelOptions::default()).unwrap();
     let per_tri = acc.memory_bytes() as f64 / 2000.0;
     assert!(
