@@ -177,6 +177,28 @@ impl SurfacePoint {
     }
 }
 
+impl SurfacePoint {
+    /// The point of the sphere `(center, radius)` nearest to `hit` (a point a
+    /// ray query found on it, off by its rounding), with the outward normal.
+    /// Projecting back onto the sphere (pbrt-v4 section 6.8.5) leaves an error
+    /// of a few ulps of the coordinates involved: the bound is
+    /// `gamma(5) * (|center| + radius)` on every axis, isotropic like the
+    /// triangle's.
+    pub fn on_sphere(center: Vec3, radius: f32, hit: Vec3) -> Self {
+        let d = hit - center;
+        let len = d.length();
+        // a degenerate query (hit at the centre) still gets a valid frame
+        let n = if len > 0.0 && len.is_finite() {
+            d / len
+        } else {
+            Vec3::Y
+        };
+        let p = center + radius * n;
+        let p_err = Vec3::splat(gamma(5) * (center.abs().max_element() + radius));
+        SurfacePoint { p, p_err, n }
+    }
+}
+
 /// The origin for a ray leaving `sp` in direction `w`: pushed along the
 /// geometric normal, to the side `w` points to, just past the error box of the
 /// point, then rounded one ulp further out on every axis the normal has a

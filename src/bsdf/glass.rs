@@ -134,6 +134,10 @@ impl Bxdf for Glass {
     fn has_transmission(&self) -> bool {
         true
     }
+
+    fn eta(&self) -> f32 {
+        self.ior
+    }
 }
 
 #[cfg(test)]

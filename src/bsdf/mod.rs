@@ -113,6 +113,14 @@ pub trait Bxdf {
     fn has_transmission(&self) -> bool {
         false
     }
+
+    /// Index of refraction inside relative to outside, for a BSDF that
+    /// transmits (1 otherwise). A refracted sample changes radiance by
+    /// `1 / eta'^2` (see [`Glass`]); the estimator undoes that factor before
+    /// Russian roulette looks at the throughput (pbrt-v4's `etaScale`).
+    fn eta(&self) -> f32 {
+        1.0
+    }
 }
 
 /// Any of the BSDFs, for code that does not specialise on the material.
@@ -169,6 +177,10 @@ impl Bxdf for Bsdf {
 
     fn has_transmission(&self) -> bool {
         dispatch!(self, b => b.has_transmission())
+    }
+
+    fn eta(&self) -> f32 {
+        dispatch!(self, b => b.eta())
     }
 }
 

@@ -119,12 +119,26 @@ impl Plastic {
             avg += p.coat(mu as f32) as f64 * mu;
         }
         p.coat_avg = (2.0 * avg / AVG_STEPS as f64) as f32;
-        let eta2 = ior * ior;
-        let e_avg = p.coat_avg;
-        p.kd = diffuse / (PI * (Vec3::splat(eta2) - diffuse * (eta2 - 1.0 + e_avg)));
-        let a = p.kd * (PI * (1.0 - e_avg));
-        p.base_albedo = (a.x + a.y + a.z) / 3.0;
+        p.set_diffuse(diffuse);
         Ok(p)
+    }
+
+    /// The same coat over base albedo `diffuse` (each channel in `[0, 1]`;
+    /// a texture lookup): the coat's table is kept, only the base terms are
+    /// recomputed.
+    pub fn with_diffuse(&self, diffuse: Vec3) -> Self {
+        let mut p = *self;
+        p.set_diffuse(diffuse.clamp(Vec3::ZERO, Vec3::ONE));
+        p
+    }
+
+    fn set_diffuse(&mut self, diffuse: Vec3) {
+        let eta2 = self.ior * self.ior;
+        let e_avg = self.coat_avg;
+        self.diffuse = diffuse;
+        self.kd = diffuse / (PI * (Vec3::splat(eta2) - diffuse * (eta2 - 1.0 + e_avg)));
+        let a = self.kd * (PI * (1.0 - e_avg));
+        self.base_albedo = (a.x + a.y + a.z) / 3.0;
     }
 
     /// Base albedo.

@@ -10,32 +10,75 @@ mod obj;
 pub mod procedural;
 mod toml_file;
 
+use crate::accel::{Hit, Sphere};
+use crate::bsdf::{Bsdf, Diffuse};
+use crate::camera::{Camera, ThinLens};
 use crate::error::{Error, Result};
-use crate::math::{SurfacePoint, Vec3, triangle_normal};
+use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
+use crate::math::{Ray, SurfacePoint, Vec2, Vec3, triangle_normal};
+use crate::texture::ImageTexture;
 use std::path::{Path, PathBuf};
 
 pub use limits::{MAX_COORDINATE, MAX_PIXELS, MAX_RESOLUTION, MAX_TRIANGLES, MAX_VERTICES};
 pub use obj::load_obj_mesh;
 
-/// A diffuse, possibly emissive material.
+/// A surface material: a BSDF, an optional albedo texture, and emission.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Material {
     /// Name (from the .mtl file, or a generated one).
     pub name: String,
-    /// Lambertian albedo, each channel in `[0, 1]`.
-    pub albedo: Vec3,
+    /// How the surface scatters light. Checked by [`Bsdf::validate`] when
+    /// loaded.
+    pub bsdf: Bsdf,
+    /// An albedo texture (index into [`Scene::textures`]) that replaces the
+    /// diffuse albedo of a `diffuse` BSDF or the base of a `plastic` one,
+    /// looked up at the surface's texture coordinates.
+    pub texture: Option<u32>,
     /// Emitted radiance (an area light when non-zero).
     pub emission: Vec3,
     /// Emit from both sides (otherwise only from the front, where the
-    /// triangle winds counter-clockwise).
+    /// triangle winds counter-clockwise or the sphere's normal points out).
     pub two_sided: bool,
+}
+
+impl Material {
+    /// A Lambertian material named `name` with `albedo`.
+    pub fn diffuse(name: &str, albedo: Vec3) -> Self {
+        Material {
+            name: name.to_string(),
+            bsdf: Bsdf::Diffuse(Diffuse { albedo }),
+            ..Material::default()
+        }
+    }
+
+    /// The diffuse albedo, for a `diffuse` material.
+    pub fn albedo(&self) -> Option<Vec3> {
+        match &self.bsdf {
+            Bsdf::Diffuse(d) => Some(d.albedo),
+            _ => None,
+        }
+    }
+
+    /// The material's type as scene files spell it.
+    pub fn type_name(&self) -> &'static str {
+        match &self.bsdf {
+            Bsdf::Diffuse(_) => "diffuse",
+            Bsdf::Mirror(_) => "mirror",
+            Bsdf::Glass(_) => "glass",
+            Bsdf::Conductor(_) => "conductor",
+            Bsdf::Plastic(_) => "plastic",
+        }
+    }
 }
 
 impl Default for Material {
     fn default() -> Self {
         Material {
             name: "default".to_string(),
-            albedo: Vec3::splat(0.8),
+            bsdf: Bsdf::Diffuse(Diffuse {
+                albedo: Vec3::splat(0.8),
+            }),
+            texture: None,
             emission: Vec3::ZERO,
             two_sided: false,
         }
@@ -107,10 +150,32 @@ pub struct Scene {
     pub materials: Vec<Material>,
     /// Mesh ranges, in order.
     pub meshes: Vec<MeshRange>,
+    /// Texture coordinates of each triangle's corners, when some mesh has
+    /// them: empty, or one entry per triangle (zeros for triangles of meshes
+    /// without).
+    pub tri_uv: Vec<[Vec2; 3]>,
+    /// Vertex normals of each triangle's corners (unit, world space), when
+    /// some mesh has them: empty, or one entry per triangle, with zero
+    /// vectors for triangles shaded flat.
+    pub tri_shading_normals: Vec<[Vec3; 3]>,
+    /// Analytic spheres; sphere `i` is primitive `triangle_count() + i`.
+    pub spheres: Vec<Sphere>,
+    /// Material index per sphere.
+    pub sphere_material: Vec<u32>,
+    /// Albedo textures, indexed by [`Material::texture`].
+    pub textures: Vec<ImageTexture>,
     /// Radiance of the uniform environment light, if any.
     pub environment: Option<Vec3>,
+    /// The image-based environment light, if any.
+    pub environment_map: Option<EnvironmentMap>,
+    /// Point lights.
+    pub point_lights: Vec<PointLight>,
+    /// Directional lights.
+    pub directional_lights: Vec<DirectionalLight>,
     /// The camera.
     pub camera: CameraDesc,
+    /// The camera's lens (a pinhole unless the scene sets an aperture).
+    pub lens: ThinLens,
     /// Image width and height.
     pub resolution: [u32; 2],
     /// Render defaults from the file.
@@ -162,10 +227,33 @@ impl Scene {
         self.indices[prim as usize].map(|i| self.positions[i as usize])
     }
 
-    /// The material of triangle `prim`.
+    /// Number of primitives: triangles, then spheres.
+    pub fn primitive_count(&self) -> usize {
+        self.indices.len() + self.spheres.len()
+    }
+
+    /// The sphere that primitive `prim` is, if it is one.
+    #[inline]
+    pub fn sphere(&self, prim: u32) -> Option<&Sphere> {
+        (prim as usize)
+            .checked_sub(self.indices.len())
+            .map(|i| &self.spheres[i])
+    }
+
+    /// The material index of primitive `prim`.
+    #[inline]
+    pub fn material_index(&self, prim: u32) -> u32 {
+        let nt = self.indices.len();
+        match (prim as usize).checked_sub(nt) {
+            None => self.tri_material[prim as usize],
+            Some(i) => self.sphere_material[i],
+        }
+    }
+
+    /// The material of primitive `prim` (a triangle or a sphere).
     #[inline]
     pub fn material(&self, prim: u32) -> &Material {
-        &self.materials[self.tri_material[prim as usize] as usize]
+        &self.materials[self.material_index(prim) as usize]
     }
 
     /// The surface point at barycentrics `(u, v)` of triangle `prim`, rebuilt
@@ -175,7 +263,51 @@ impl Scene {
         SurfacePoint::on_triangle(self.triangle(prim), u, v, self.normals[prim as usize])
     }
 
-    /// Axis-aligned bounds of all vertices used by triangles: `(min, max)`.
+    /// The surface point a backend's `hit` of `ray` stands for: rebuilt from
+    /// the barycentrics on a triangle, or from the ray's `t`, projected back
+    /// onto the sphere, on a sphere.
+    #[inline]
+    pub fn hit_point(&self, ray: &Ray, hit: &Hit) -> SurfacePoint {
+        match self.sphere(hit.prim) {
+            None => self.surface_point(hit.prim, hit.u, hit.v),
+            Some(s) => SurfacePoint::on_sphere(s.center, s.radius, ray.at(hit.t)),
+        }
+    }
+
+    /// Texture coordinates at a surface point: interpolated corner UVs on a
+    /// triangle (zero when its mesh has none), or on a sphere, from its outward
+    /// normal `n`, `u = atan2(-n.z, n.x) / 2 pi` wrapped to `[0, 1)` and
+    /// `v = 1 - acos(n.y) / pi`, so `v = 1` at the top (+y) pole.
+    pub fn uv(&self, prim: u32, sp: &SurfacePoint, u: f32, v: f32) -> Vec2 {
+        match self.sphere(prim) {
+            None => match self.tri_uv.get(prim as usize) {
+                Some(t) => (1.0 - u - v) * t[0] + u * t[1] + v * t[2],
+                None => Vec2::ZERO,
+            },
+            Some(_) => {
+                let n = sp.n;
+                let phi = (-n.z).atan2(n.x);
+                let phi = if phi < 0.0 {
+                    phi + std::f32::consts::TAU
+                } else {
+                    phi
+                };
+                let theta = n.y.clamp(-1.0, 1.0).acos();
+                Vec2::new(
+                    phi / std::f32::consts::TAU,
+                    1.0 - theta / std::f32::consts::PI,
+                )
+            }
+        }
+    }
+
+    /// The camera for a `width` x `height` image, with the scene's lens.
+    pub fn make_camera(&self, width: u32, height: u32) -> Camera {
+        Camera::with_lens(&self.camera, width, height, self.lens)
+    }
+
+    /// Axis-aligned bounds of all vertices used by triangles and of all
+    /// spheres: `(min, max)`.
     pub fn bounds(&self) -> Bounds {
         let mut b = Bounds::empty();
         for t in &self.indices {
@@ -183,17 +315,25 @@ impl Scene {
                 b.extend(self.positions[i as usize]);
             }
         }
+        for s in &self.spheres {
+            b.extend(s.center - Vec3::splat(s.radius));
+            b.extend(s.center + Vec3::splat(s.radius));
+        }
         b
     }
 
-    /// The triangles as a backend receives them.
+    /// The primitives as a backend receives them.
     pub fn soup(&self) -> crate::accel::TriangleSoup<'_> {
-        crate::accel::TriangleSoup::triangles(&self.positions, &self.indices)
+        crate::accel::TriangleSoup {
+            positions: &self.positions,
+            indices: &self.indices,
+            spheres: &self.spheres,
+        }
     }
 
-    /// Whether any material emits.
+    /// Whether any material of a primitive emits.
     pub fn has_emitters(&self) -> bool {
-        (0..self.indices.len()).any(|i| self.material(i as u32).emission.max_element() > 0.0)
+        (0..self.primitive_count()).any(|i| self.material(i as u32).emission.max_element() > 0.0)
     }
 
     /// A camera that frames the scene's bounds from the +z side.
@@ -297,6 +437,12 @@ pub struct MeshData {
     pub tri_material: Vec<u32>,
     /// The mesh's materials.
     pub materials: Vec<Material>,
+    /// Texture coordinates of each triangle's corners: empty, or one entry
+    /// per triangle.
+    pub uvs: Vec<[Vec2; 3]>,
+    /// Vertex normals of each triangle's corners (any length; zero = none):
+    /// empty, or one entry per triangle.
+    pub normals: Vec<[Vec3; 3]>,
 }
 
 /// Accumulates meshes into a [`Scene`], dropping triangles no backend should see.
@@ -319,8 +465,17 @@ impl SceneBuilder {
                 tri_material: Vec::new(),
                 materials: Vec::new(),
                 meshes: Vec::new(),
+                tri_uv: Vec::new(),
+                tri_shading_normals: Vec::new(),
+                spheres: Vec::new(),
+                sphere_material: Vec::new(),
+                textures: Vec::new(),
                 environment: None,
+                environment_map: None,
+                point_lights: Vec::new(),
+                directional_lights: Vec::new(),
                 camera: Scene::framing_camera(&Bounds::empty()),
+                lens: ThinLens::PINHOLE,
                 resolution: [512, 512],
                 render: RenderDefaults::default(),
                 notes: Vec::new(),
@@ -382,6 +537,20 @@ impl SceneBuilder {
                 mesh.name
             ));
         }
+        if mesh.uvs.is_empty() {
+            let used = |m: usize| mesh.tri_material.iter().any(|&t| t as usize == m);
+            if let Some((_, m)) = mesh
+                .materials
+                .iter()
+                .enumerate()
+                .find(|(i, m)| m.texture.is_some() && used(*i))
+            {
+                return fail(format!(
+                    "mesh `{}` has no texture coordinates (vt), but its material `{}` has a texture",
+                    mesh.name, m.name
+                ));
+            }
+        }
         self.place(mesh, transform, line);
         Ok(())
     }
@@ -397,11 +566,29 @@ impl SceneBuilder {
         s.positions
             .extend(mesh.positions.iter().map(|&p| m.transform_point3(p)));
         let start = s.indices.len() as u32;
+        // per-corner attributes line up with the triangles once any mesh has them
+        if !mesh.uvs.is_empty() && s.tri_uv.is_empty() {
+            s.tri_uv = vec![[Vec2::ZERO; 3]; s.indices.len()];
+        }
+        if !mesh.normals.is_empty() && s.tri_shading_normals.is_empty() {
+            s.tri_shading_normals = vec![[Vec3::ZERO; 3]; s.indices.len()];
+        }
+        let normal_matrix = m.matrix3.inverse().transpose();
         let (mut out_of_range, mut degenerate) = (0usize, 0usize);
-        for (t, &mat) in mesh.indices.iter().zip(&mesh.tri_material) {
+        for (k, (t, &mat)) in mesh.indices.iter().zip(&mesh.tri_material).enumerate() {
             let mut idx = t.map(|i| i + base_vertex);
+            let mut uv = mesh.uvs.get(k).copied().unwrap_or([Vec2::ZERO; 3]);
+            let mut ns = mesh.normals.get(k).map_or([Vec3::ZERO; 3], |c| {
+                c.map(|n| {
+                    // a zero, non-finite or degenerate normal shades flat
+                    let w = Vec3::from(normal_matrix * glam::Vec3A::from(n)).normalize_or_zero();
+                    if w.is_finite() { w } else { Vec3::ZERO }
+                })
+            });
             if flip {
                 idx.swap(1, 2);
+                uv.swap(1, 2);
+                ns.swap(1, 2);
             }
             let p = idx.map(|i| s.positions[i as usize]);
             if !p.iter().all(|q| q.abs().max_element() <= MAX_COORDINATE) {
@@ -416,6 +603,16 @@ impl SceneBuilder {
             s.indices.push(idx);
             s.normals.push(n);
             s.tri_material.push(base_material + mat);
+            if !s.tri_uv.is_empty() {
+                s.tri_uv.push(uv);
+            }
+            if !s.tri_shading_normals.is_empty() {
+                // a corner whose normal faces away from the triangle's front
+                // is flipped, so each interpolated normal is on the front
+                // side at that corner
+                s.tri_shading_normals
+                    .push(ns.map(|c| if c.dot(n) < 0.0 { -c } else { c }));
+            }
         }
         let at = crate::error::Location {
             file: s.source.clone(),
@@ -438,6 +635,29 @@ impl SceneBuilder {
             start,
             end,
         });
+    }
+
+    /// Add an analytic sphere with its own material, which the scene file
+    /// describes at `line`. A textured material is fine: spheres have their
+    /// own texture coordinates.
+    pub fn add_sphere(
+        &mut self,
+        sphere: Sphere,
+        material: Material,
+        line: Option<usize>,
+    ) -> Result<()> {
+        let s = &mut self.scene;
+        if s.spheres.len() as u64 >= self.max_triangles {
+            return Err(Error::input(
+                &s.source,
+                line,
+                format!("more than {} spheres", self.max_triangles),
+            ));
+        }
+        s.sphere_material.push(s.materials.len() as u32);
+        s.materials.push(material);
+        s.spheres.push(sphere);
+        Ok(())
     }
 
     /// Triangles placed so far.
@@ -472,6 +692,7 @@ mod tests {
             indices: vec![[0, 1, 2]],
             tri_material: vec![0],
             materials: vec![Material::default()],
+            ..MeshData::default()
         }
     }
 

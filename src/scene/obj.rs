@@ -142,10 +142,8 @@ fn convert_material(m: &tobj::Material, file: &Path) -> Result<Material> {
         ));
     }
     Ok(Material {
-        name: m.name.clone(),
-        albedo,
         emission: colour("Ke", m.emissive, Vec3::ZERO)?,
-        two_sided: false,
+        ..Material::diffuse(&m.name, albedo)
     })
 }
 
@@ -495,7 +493,7 @@ mod tests {
         assert_eq!(m.indices.len(), 2, "`l` is not a triangle");
         assert_eq!(m.positions[1], Vec3::X, "w divides the vertex");
         assert_eq!(m.materials[0].name, "red");
-        assert_eq!(m.materials[0].albedo, Vec3::new(0.5, 0.0, 0.0));
+        assert_eq!(m.materials[0].albedo(), Some(Vec3::new(0.5, 0.0, 0.0)));
         assert_eq!(m.tri_material, [0, 0]);
     }
 

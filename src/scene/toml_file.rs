@@ -33,8 +33,13 @@ use super::procedural::{self, Shape};
 use super::{
     CameraDesc, Material, MeshData, RenderDefaults, Scene, SceneBuilder, Transform, load_obj_mesh,
 };
+use crate::accel::Sphere;
+use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Mirror, Plastic};
+use crate::camera::ThinLens;
 use crate::error::{Error, Result};
+use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
 use crate::math::Vec3;
+use crate::texture::ImageTexture;
 use serde::Deserialize;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use std::collections::HashMap;
@@ -54,6 +59,8 @@ struct SceneFile {
     light: Vec<LightToml>,
     #[serde(default)]
     procedural: Vec<ProceduralToml>,
+    #[serde(default)]
+    sphere: Vec<SphereToml>,
 }
 
 #[derive(Deserialize)]
@@ -83,6 +90,9 @@ struct CameraToml {
     up: [f32; 3],
     #[serde(default = "default_fov")]
     fov_y: f32,
+    #[serde(default)]
+    aperture_radius: f32,
+    focus_distance: Option<f32>,
 }
 
 fn default_up() -> [f32; 3] {
@@ -127,9 +137,49 @@ struct TransformToml {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct MaterialToml {
+    #[serde(rename = "type")]
+    kind: Option<String>,
     diffuse: Option<Rgb>,
+    texture: Option<String>,
+    reflectance: Option<Rgb>,
+    transmittance: Option<Rgb>,
+    ior: Option<f32>,
+    alpha: Option<f32>,
+    eta: Option<Rgb>,
+    k: Option<Rgb>,
+    distribution: Option<String>,
     emission: Option<Rgb>,
     two_sided: Option<bool>,
+}
+
+impl MaterialToml {
+    /// The BSDF keys present, by name.
+    fn bsdf_keys(&self) -> Vec<&'static str> {
+        let present = [
+            ("diffuse", self.diffuse.is_some()),
+            ("texture", self.texture.is_some()),
+            ("reflectance", self.reflectance.is_some()),
+            ("transmittance", self.transmittance.is_some()),
+            ("ior", self.ior.is_some()),
+            ("alpha", self.alpha.is_some()),
+            ("eta", self.eta.is_some()),
+            ("k", self.k.is_some()),
+            ("distribution", self.distribution.is_some()),
+        ];
+        present
+            .iter()
+            .filter(|(_, on)| *on)
+            .map(|(k, _)| *k)
+            .collect()
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SphereToml {
+    center: [f32; 3],
+    radius: f32,
+    material: Option<MaterialToml>,
 }
 
 #[derive(Deserialize)]
@@ -138,6 +188,11 @@ struct LightToml {
     #[serde(rename = "type")]
     kind: String,
     radiance: Option<Rgb>,
+    file: Option<String>,
+    position: Option<[f32; 3]>,
+    intensity: Option<Rgb>,
+    direction: Option<[f32; 3]>,
+    irradiance: Option<Rgb>,
 }
 
 /// A colour-like value: one number or an `[r, g, b]` triple.
@@ -249,23 +304,151 @@ fn check_colour(path: &Path, line: Option<usize>, what: &str, c: Rgb) -> Result<
     Ok(v)
 }
 
-/// Apply a `material = {...}` override to `mat`.
+/// Textures named by the scene file, each loaded once.
+#[derive(Default)]
+struct Textures {
+    index: HashMap<PathBuf, u32>,
+    list: Vec<ImageTexture>,
+}
+
+impl Textures {
+    /// The index of the texture at `file` (relative to the scene's folder),
+    /// loading it on first use.
+    fn get(&mut self, path: &Path, line: Option<usize>, file: &str) -> Result<u32> {
+        let full = path.parent().unwrap_or(Path::new("")).join(file);
+        if let Some(&i) = self.index.get(&full) {
+            return Ok(i);
+        }
+        if !full.is_file() {
+            return Err(Error::input(
+                path,
+                line,
+                format!(
+                    "texture `{file}` not found (expected a .png or .exr file next to the scene)"
+                ),
+            ));
+        }
+        let t = ImageTexture::load(&full)?;
+        let i = self.list.len() as u32;
+        self.list.push(t);
+        self.index.insert(full, i);
+        Ok(i)
+    }
+}
+
+/// The BSDF keys each material type accepts.
+fn keys_of_type(kind: &str) -> Option<&'static [&'static str]> {
+    Some(match kind {
+        "diffuse" => &["diffuse", "texture"],
+        "mirror" => &["reflectance"],
+        "glass" => &["ior", "reflectance", "transmittance"],
+        "conductor" => &["alpha", "eta", "k", "distribution"],
+        "plastic" => &["diffuse", "texture", "ior", "alpha"],
+        _ => return None,
+    })
+}
+
+/// Apply a `material = {...}` table to `mat`.
+///
+/// With `type`, the table describes the whole material: `mat` keeps only its
+/// name, and keys the table leaves out take the type's defaults (diffuse 0.8;
+/// reflectance and transmittance 1; ior 1.5; conductor `alpha` 0.1, `eta` 0
+/// and `k` 1 (a perfect conductor), GGX; plastic `alpha` 0). Without `type`,
+/// the keys given override those of `mat` (from an MTL file, say): `diffuse`
+/// or `texture` make it diffuse, and keys of other types are an error.
 fn apply_material(
     path: &Path,
     line: Option<usize>,
     over: &MaterialToml,
     mat: &mut Material,
+    textures: &mut Textures,
 ) -> Result<()> {
-    if let Some(d) = over.diffuse {
-        let d = check_colour(path, line, "material.diffuse", d)?;
-        if d.max_element() > 1.0 {
-            return Err(Error::input(
-                path,
-                line,
-                format!("material.diffuse must be at most 1, got {d}"),
-            ));
+    let fail = |m: String| Error::input(path, line, m);
+    let keys = over.bsdf_keys();
+    let unit = |key: &str, v: Option<Rgb>, default: f32| -> Result<Vec3> {
+        let Some(v) = v else {
+            return Ok(Vec3::splat(default));
+        };
+        let v = check_colour(path, line, &format!("material.{key}"), v)?;
+        if v.max_element() > 1.0 {
+            return Err(fail(format!("material.{key} must be at most 1, got {v}")));
         }
-        mat.albedo = d;
+        Ok(v)
+    };
+    let texture = match &over.texture {
+        Some(f) => Some(textures.get(path, line, f)?),
+        None => None,
+    };
+    match over.kind.as_deref() {
+        None => {
+            if let Some(k) = keys.iter().find(|k| !["diffuse", "texture"].contains(k)) {
+                return Err(fail(format!(
+                    "material.{k} needs a `type` (one of diffuse, mirror, glass, conductor, plastic)"
+                )));
+            }
+            if over.diffuse.is_some() || texture.is_some() {
+                let albedo = match over.diffuse {
+                    Some(d) => unit("diffuse", Some(d), 0.8)?,
+                    None => mat.albedo().unwrap_or(Vec3::splat(0.8)),
+                };
+                mat.bsdf = Bsdf::Diffuse(Diffuse { albedo });
+                mat.texture = texture.or(mat.texture);
+            }
+        }
+        Some(kind) => {
+            let allowed = keys_of_type(kind).ok_or_else(|| {
+                fail(format!(
+                    "unknown material type `{kind}` (expected diffuse, mirror, glass, conductor or plastic)"
+                ))
+            })?;
+            if let Some(k) = keys.iter().find(|k| !allowed.contains(k)) {
+                return Err(fail(format!(
+                    "material.{k} is not a key of type `{kind}` (it takes {})",
+                    allowed.join(", ")
+                )));
+            }
+            let ior = over.ior.unwrap_or(1.5);
+            let bsdf = match kind {
+                "diffuse" => Bsdf::Diffuse(Diffuse {
+                    albedo: unit("diffuse", over.diffuse, 0.8)?,
+                }),
+                "mirror" => Bsdf::Mirror(Mirror {
+                    reflectance: unit("reflectance", over.reflectance, 1.0)?,
+                }),
+                "glass" => Bsdf::Glass(Glass {
+                    ior,
+                    reflectance: unit("reflectance", over.reflectance, 1.0)?,
+                    transmittance: unit("transmittance", over.transmittance, 1.0)?,
+                }),
+                "conductor" => {
+                    let distribution = match &over.distribution {
+                        Some(d) => d
+                            .parse::<Distribution>()
+                            .map_err(|e| fail(format!("material.distribution: {e}")))?,
+                        None => Distribution::Ggx,
+                    };
+                    Bsdf::Conductor(Conductor {
+                        eta: over.eta.map_or(Vec3::ZERO, |c| c.0),
+                        k: over.k.map_or(Vec3::ONE, |c| c.0),
+                        microfacet: Microfacet::new(distribution, over.alpha.unwrap_or(0.1)),
+                    })
+                }
+                _ => Bsdf::Plastic(
+                    Plastic::new(
+                        unit("diffuse", over.diffuse, 0.8)?,
+                        ior,
+                        over.alpha.unwrap_or(0.0),
+                    )
+                    .map_err(|e| fail(format!("material: {e}")))?,
+                ),
+            };
+            bsdf.validate()
+                .map_err(|e| fail(format!("material: {e}")))?;
+            mat.bsdf = bsdf;
+            mat.texture = texture;
+            mat.emission = Vec3::ZERO;
+            mat.two_sided = false;
+        }
     }
     if let Some(e) = over.emission {
         mat.emission = check_colour(path, line, "material.emission", e)?;
@@ -329,6 +512,7 @@ pub fn load(path: &Path) -> Result<Scene> {
     })?;
     let dir = path.parent().unwrap_or(Path::new(""));
     let mut b = SceneBuilder::new(path);
+    let mut textures = Textures::default();
 
     let mesh_lines = table_lines(&text, "mesh");
     // a file listed again is parsed once
@@ -377,7 +561,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         };
         if let Some(over) = &m.material {
             for mat in &mut mesh.materials {
-                apply_material(path, line, over, mat)?;
+                apply_material(path, line, over, mat, &mut textures)?;
             }
         }
         let transform = parse_transform(path, line, m.transform.as_ref())?;
@@ -436,7 +620,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             ..Material::default()
         };
         if let Some(over) = &p.material {
-            apply_material(path, line, over, &mut material)?;
+            apply_material(path, line, over, &mut material, &mut textures)?;
         }
         let transform = parse_transform(path, line, p.transform.as_ref())?;
         let name = format!("procedural {} #{i} ({tris} triangles)", p.kind);
@@ -444,24 +628,121 @@ pub fn load(path: &Path) -> Result<Scene> {
         b.add_mesh_from(mesh, &transform, line)?;
     }
 
+    let sphere_lines = table_lines(&text, "sphere");
+    for (i, sp) in file.sphere.iter().enumerate() {
+        let line = sphere_lines.get(i).copied();
+        let center = check_point(path, line, "sphere.center", sp.center)?;
+        if !(sp.radius > 0.0 && sp.radius <= MAX_COORDINATE) {
+            return Err(Error::input(
+                path,
+                line,
+                format!(
+                    "sphere.radius must be a number in (0, {MAX_COORDINATE:e}], got {}",
+                    sp.radius
+                ),
+            ));
+        }
+        if (center.abs() + Vec3::splat(sp.radius)).max_element() > MAX_COORDINATE {
+            return Err(Error::input(
+                path,
+                line,
+                format!("sphere reaches beyond +-{MAX_COORDINATE:e} on some axis"),
+            ));
+        }
+        let mut material = Material {
+            name: format!("sphere{i}"),
+            ..Material::default()
+        };
+        if let Some(over) = &sp.material {
+            apply_material(path, line, over, &mut material, &mut textures)?;
+        }
+        b.add_sphere(
+            Sphere {
+                center,
+                radius: sp.radius,
+            },
+            material,
+            line,
+        )?;
+    }
+
     let scene = b.scene_mut();
+    scene.textures = std::mem::take(&mut textures.list);
     let light_lines = table_lines(&text, "light");
     for (i, l) in file.light.iter().enumerate() {
         let line = light_lines.get(i).copied();
+        let fail = |m: String| Error::input(path, line, m);
+        let given = [
+            ("radiance", l.radiance.is_some()),
+            ("file", l.file.is_some()),
+            ("position", l.position.is_some()),
+            ("intensity", l.intensity.is_some()),
+            ("direction", l.direction.is_some()),
+            ("irradiance", l.irradiance.is_some()),
+        ];
+        let allowed: &[&str] = match l.kind.as_str() {
+            "environment" => &["radiance", "file"],
+            "point" => &["position", "intensity"],
+            "directional" => &["direction", "irradiance"],
+            other => {
+                return Err(fail(format!(
+                    "unknown light type `{other}` (expected \"environment\", \"point\" or \"directional\")"
+                )));
+            }
+        };
+        if let Some((k, _)) = given.iter().find(|(k, on)| *on && !allowed.contains(k)) {
+            return Err(fail(format!(
+                "`{k}` is not a key of a {} light (it takes {})",
+                l.kind,
+                allowed.join(", ")
+            )));
+        }
+        let need = |v: Option<Rgb>, key: &str| {
+            v.ok_or_else(|| fail(format!("{} light needs `{key}`", l.kind)))
+        };
         match l.kind.as_str() {
             "environment" => {
-                let r = l.radiance.ok_or_else(|| {
-                    Error::input(path, line, "environment light needs `radiance`")
-                })?;
-                let r = check_colour(path, line, "radiance", r)?;
-                scene.environment = Some(scene.environment.unwrap_or(Vec3::ZERO) + r);
+                let r = match (&l.file, l.radiance) {
+                    (Some(_), None) => Vec3::ONE,
+                    (_, r) => check_colour(path, line, "radiance", need(r, "radiance")?)?,
+                };
+                if let Some(f) = &l.file {
+                    if scene.environment_map.is_some() {
+                        return Err(fail(
+                            "a second environment light with a `file` (one image map per scene)"
+                                .to_string(),
+                        ));
+                    }
+                    let full = dir.join(f);
+                    if !full.is_file() {
+                        return Err(fail(format!(
+                            "environment file `{f}` not found (expected a .exr or .png next to the scene)"
+                        )));
+                    }
+                    scene.environment_map = Some(EnvironmentMap::load(&full, r)?);
+                } else {
+                    scene.environment = Some(scene.environment.unwrap_or(Vec3::ZERO) + r);
+                }
             }
-            other => {
-                return Err(Error::input(
-                    path,
-                    line,
-                    format!("unknown light type `{other}` (expected \"environment\")"),
-                ));
+            "point" => {
+                let p = l
+                    .position
+                    .ok_or_else(|| fail("point light needs `position`".to_string()))?;
+                let p = check_point(path, line, "position", p)?;
+                let i = check_colour(path, line, "intensity", need(l.intensity, "intensity")?)?;
+                scene.point_lights.push(PointLight::new(p, i));
+            }
+            _ => {
+                let d = l
+                    .direction
+                    .ok_or_else(|| fail("directional light needs `direction`".to_string()))?;
+                let e = check_colour(path, line, "irradiance", need(l.irradiance, "irradiance")?)?;
+                let light = DirectionalLight::new(Vec3::from(d), e).ok_or_else(|| {
+                    fail(format!(
+                        "directional light: `direction` must be finite and non-zero, got {d:?}"
+                    ))
+                })?;
+                scene.directional_lights.push(light);
             }
         }
     }
@@ -518,6 +799,12 @@ pub fn load(path: &Path) -> Result<Scene> {
                 up,
                 fov_y: c.fov_y,
             };
+            // the plane in focus defaults to the target's
+            let focus = c.focus_distance.unwrap_or(view.length());
+            scene.lens = ThinLens::new(c.aperture_radius, focus).map_err(|e| match e {
+                Error::Settings(m) => Error::input(path, line, format!("camera.{m}")),
+                other => other,
+            })?;
         }
         None => {
             scene.camera = Scene::framing_camera(&scene.bounds());

@@ -17,10 +17,12 @@ pub struct MeshMaker {
 impl MeshMaker {
     pub fn material(&mut self, albedo: f32, emission: f32, two_sided: bool) -> u32 {
         self.data.materials.push(Material {
-            name: format!("m{}", self.data.materials.len()),
-            albedo: Vec3::splat(albedo),
             emission: Vec3::splat(emission),
             two_sided,
+            ..Material::diffuse(
+                &format!("m{}", self.data.materials.len()),
+                Vec3::splat(albedo),
+            )
         });
         self.data.materials.len() as u32 - 1
     }
