@@ -21,6 +21,7 @@ pub mod film;
 pub mod integrator;
 pub mod light;
 pub mod parity;
+pub mod plan;
 pub mod plot;
 pub mod progressive;
 pub mod raysets;

@@ -4,12 +4,12 @@ use clap::{Args, Parser, Subcommand};
 use embertrace::accel::bvh::BvhQuality;
 use embertrace::accel::{self, AccelOptions, Backend};
 use embertrace::bench::{self, BenchSettings};
-use embertrace::camera::Camera;
 use embertrace::diff::{Image, compare};
 use embertrace::error::{Error, Result};
 use embertrace::film::{self, OutputOptions};
 use embertrace::integrator::{DirectStrategy, IntegratorSettings, PathTracer, Roulette};
 use embertrace::parity::{self, ParitySettings};
+use embertrace::plan::{Plan, PlanMode};
 use embertrace::progressive::{Adaptive, Budget, CONFIDENCE, PassRecord, render_progressive};
 use embertrace::raysets::RayKind;
 use embertrace::render::{self, RenderSettings};
@@ -48,6 +48,21 @@ enum Command {
     /// Render a scene under several settings: error against time, a contact
     /// sheet and the Pareto front.
     Study(StudyArgs),
+    /// Print the effects a scene calls for, what calls for each, and the
+    /// code that runs.
+    Plan(PlanArgs),
+}
+
+#[derive(Args)]
+struct PlanArgs {
+    /// Scene file: .toml or .obj.
+    scene: PathBuf,
+    /// Maximum bounces (decides `indirect`) [scene default].
+    #[arg(short = 'm', long = "max-depth")]
+    max_depth: Option<u32>,
+    /// Print JSON: `effects` (the names that are on), `kernel`, `details`.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Args)]
@@ -203,6 +218,10 @@ struct RenderArgs {
     /// Direct lighting: mis, light or bsdf.
     #[arg(long, default_value = "mis")]
     direct: DirectStrategy,
+    /// Estimator kernel: specialised (for the scene's effects, see
+    /// `embertrace plan`) or general (every effect compiled in; same image).
+    #[arg(long, default_value = "specialised")]
+    plan: PlanMode,
     /// Fixed Russian-roulette continuation probability in [0, 1]
     /// [default: throughput-based].
     #[arg(long = "rr", value_name = "P")]
@@ -297,12 +316,33 @@ const SUBCOMMANDS: &[&str] = &[
     "parity",
     "diff",
     "study",
+    "plan",
     "help",
     "-h",
     "--help",
     "-V",
     "--version",
 ];
+
+/// `embertrace plan`.
+fn run_plan(args: PlanArgs) -> Result<()> {
+    let scene = Scene::load(&args.scene)?;
+    if let Some(m) = args.max_depth {
+        limits::check_max_depth(m as u64).map_err(|e| Error::Settings(format!("-m: {e}")))?;
+    }
+    let settings = IntegratorSettings {
+        max_depth: args.max_depth.unwrap_or(scene.render.max_depth),
+        ..IntegratorSettings::default()
+    };
+    let plan = Plan::new(&scene, &settings);
+    if args.json {
+        print!("{}", plan.json());
+    } else {
+        println!("effects plan for {}:", args.scene.display());
+        print!("{}", plan.text());
+    }
+    Ok(())
+}
 
 fn main() -> ExitCode {
     let mut argv: Vec<String> = std::env::args().collect();
@@ -316,6 +356,7 @@ fn main() -> ExitCode {
         Command::Parity(args) => run_parity(args),
         Command::Diff(args) => run_diff(args),
         Command::Study(args) => run_study(args),
+        Command::Plan(args) => run_plan(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -702,8 +743,10 @@ fn run_render(args: RenderArgs) -> Result<()> {
     let accel = accel::build(backend, scene.soup(), args.build.options())?;
     let accel_build_seconds = t1.elapsed().as_secs_f64();
 
-    let camera = Camera::new(&scene.camera, w, h);
-    let tracer = PathTracer::new(&scene, accel.as_ref(), integrator);
+    let camera = scene.make_camera(w, h);
+    let plan = Plan::new(&scene, &integrator);
+    let kernel = plan.kernel_for(args.plan);
+    let tracer = PathTracer::with_kernel(&scene, accel.as_ref(), integrator, kernel);
     let settings = RenderSettings {
         resolution,
         spp,
@@ -819,6 +862,8 @@ fn run_render(args: RenderArgs) -> Result<()> {
         &output,
     );
     let mut report = report;
+    report.effects = plan.on().iter().map(|n| n.to_string()).collect();
+    report.kernel = kernel.describe();
     if let Some(p) = progress {
         report.spp = p.spp_reached;
         if !args.quiet {

@@ -20,7 +20,6 @@
 
 use crate::accel::triangle::distance_error_bound;
 use crate::accel::{self, AccelOptions, Accelerator, Backend, Hit};
-use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::integrator::{IntegratorSettings, PathTracer};
 use crate::math::{Ray, triangle_normal};
@@ -237,7 +236,7 @@ fn compare_images(
     spp: u32,
 ) -> Result<ImageParity> {
     let settings = IntegratorSettings::default();
-    let camera = Camera::new(&scene.camera, res, res);
+    let camera = scene.make_camera(res, res);
     let rs = RenderSettings {
         resolution: [res, res],
         spp,

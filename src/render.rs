@@ -27,6 +27,16 @@ pub trait Radiance: Sync {
         sampler: &mut Sampler,
         rays: &mut RayCounts,
     ) -> Vec3;
+
+    /// The camera ray through film position `p` (pixels). By default a lens
+    /// sample is drawn when the camera has an aperture.
+    fn camera_ray(&self, camera: &Camera, p: Vec2, sampler: &mut Sampler) -> Ray {
+        if camera.lens().is_pinhole() {
+            camera.generate_ray(p)
+        } else {
+            camera.generate_ray_lens(p, sampler.next_2d())
+        }
+    }
 }
 
 impl Radiance for PathTracer<'_> {
@@ -39,6 +49,10 @@ impl Radiance for PathTracer<'_> {
         rays: &mut RayCounts,
     ) -> Vec3 {
         self.li(ray, sampler, rays)
+    }
+
+    fn camera_ray(&self, camera: &Camera, p: Vec2, sampler: &mut Sampler) -> Ray {
+        PathTracer::camera_ray(self, camera, p, sampler)
     }
 }
 
@@ -310,7 +324,8 @@ fn render_tile(
                 let mut sampler =
                     Sampler::with_kind(settings.sampler, settings.seed, pixel, s as u64);
                 let jitter = sampler.next_2d();
-                let ray = camera.generate_ray(Vec2::new(x as f32, y as f32) + jitter);
+                let ray =
+                    tracer.camera_ray(camera, Vec2::new(x as f32, y as f32) + jitter, &mut sampler);
                 let l = tracer.radiance([x, y], s, &ray, &mut sampler, &mut rays);
                 if l.is_finite() && l.min_element() >= 0.0 {
                     tile.add_sample(x, y, clamp_sample(l, settings.clamp, &mut clamp));

@@ -93,6 +93,10 @@ pub struct RenderReport {
     pub nonfinite: NonFinitePixels,
     /// Mean linear RGB over the image.
     pub mean_rgb: [f64; 3],
+    /// The effects the scene calls for (`embertrace plan`'s names).
+    pub effects: Vec<String>,
+    /// The estimator kernel that ran: its flags, or `minimal`.
+    pub kernel: String,
     /// What `--clamp` removed (absent without a clamp).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub clamp: Option<ClampSummary>,
@@ -188,6 +192,8 @@ impl RenderReport {
                 first_pixels: out.nonfinite.pixels.clone(),
             },
             mean_rgb: out.film.mean_rgb(),
+            effects: Vec::new(),
+            kernel: String::new(),
             clamp: settings.clamp.map(|max| {
                 let n = (out.film.total_samples() + out.nonfinite.count).max(1) as f64;
                 ClampSummary {

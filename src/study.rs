@@ -19,7 +19,6 @@
 //! `study.md`, and each setting's final image in `renders/`.
 
 use crate::accel::{self, AccelOptions, Accelerator, Backend};
-use crate::camera::Camera;
 use crate::diff::{Image, compare};
 use crate::error::{Error, Result};
 use crate::film::{self, Film, OutputOptions, write_file_atomically};
@@ -266,7 +265,7 @@ impl Renderer<'_> {
         let scene = self.scene;
         let accel = self.accel(s.backend)?;
         let tracer = PathTracer::new(scene, accel, s.integrator);
-        let camera = Camera::new(&scene.camera, s.resolution[0], s.resolution[1]);
+        let camera = scene.make_camera(s.resolution[0], s.resolution[1]);
         let rs = RenderSettings {
             resolution: s.resolution,
             spp: s.spp,

@@ -1,0 +1,352 @@
+//! The effects plan: which effects a scene calls for, what calls for each,
+//! and which estimator kernel runs it.
+//!
+//! Loading a scene gives a [`Scene`]; [`Plan::new`] reads off it (and the
+//! render settings) the set of effects in use, by the fixed names of
+//! [`EFFECTS`], and derives the [`Kernel`] flags from that set. The path
+//! tracer is generic over those flags (`src/integrator`), so a scene runs
+//! code compiled without the effects it lacks: a diffuse-only box has no
+//! material dispatch and no Fresnel code, a scene without delta lights or
+//! delta BSDFs has no delta checks, one without an environment returns
+//! black on a miss at once, a pinhole camera never draws a lens sample.
+//! `--plan general` runs [`Kernel::GENERAL`] instead: same image bits,
+//! possibly more time (tested on every bundled scene and backend).
+
+use crate::bsdf::Bxdf;
+use crate::integrator::{IntegratorSettings, Kernel};
+use crate::scene::Scene;
+use std::fmt::Write;
+use std::str::FromStr;
+
+/// The effect names, in the order `plan` lists them. These names are fixed:
+/// scripts read them from `plan --json` and from the render report.
+pub const EFFECTS: [&str; 15] = [
+    "diffuse",
+    "mirror",
+    "glass",
+    "conductor",
+    "plastic",
+    "texture",
+    "area_light",
+    "point_light",
+    "directional_light",
+    "environment",
+    "environment_map",
+    "sphere",
+    "smooth_normals",
+    "thin_lens",
+    "indirect",
+];
+
+/// Which kernel to run (`--plan`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PlanMode {
+    /// The kernel specialised for the scene's effects.
+    #[default]
+    Specialised,
+    /// The fully general kernel, whatever the scene.
+    General,
+}
+
+impl FromStr for PlanMode {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "specialised" | "specialized" | "auto" => Ok(PlanMode::Specialised),
+            "general" => Ok(PlanMode::General),
+            _ => Err(format!(
+                "unknown plan `{s}` (expected specialised or general)"
+            )),
+        }
+    }
+}
+
+/// One effect's entry in the plan.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Effect {
+    /// Its fixed name (one of [`EFFECTS`]).
+    pub name: &'static str,
+    /// Whether the scene calls for it.
+    pub on: bool,
+    /// What in the scene calls for it (materials, lights, shapes), or why
+    /// it is off.
+    pub because: String,
+    /// The code that runs for it, or that the kernel leaves out.
+    pub code: &'static str,
+}
+
+/// The effects a scene calls for and the kernel that renders it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// Every effect of [`EFFECTS`], in order.
+    pub effects: Vec<Effect>,
+    /// The specialised kernel's flags.
+    pub kernel: Kernel,
+}
+
+/// Up to three names, then how many more.
+fn list(names: &[String]) -> String {
+    let mut s = names
+        .iter()
+        .take(3)
+        .map(|n| format!("`{n}`"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    if names.len() > 3 {
+        let _ = write!(s, " and {} more", names.len() - 3);
+    }
+    s
+}
+
+impl Plan {
+    /// The plan for `scene` rendered with `settings`.
+    pub fn new(scene: &Scene, settings: &IntegratorSettings) -> Self {
+        // the materials some primitive uses, with what uses them
+        let mut used = vec![false; scene.materials.len()];
+        for &m in scene.tri_material.iter().chain(&scene.sphere_material) {
+            used[m as usize] = true;
+        }
+        let used_materials: Vec<_> = scene
+            .materials
+            .iter()
+            .zip(&used)
+            .filter(|(_, u)| **u)
+            .map(|(m, _)| m)
+            .collect();
+        let of_type = |t: &str| -> Vec<String> {
+            let mut v: Vec<String> = used_materials
+                .iter()
+                .filter(|m| m.type_name() == t)
+                .map(|m| m.name.clone())
+                .collect();
+            v.dedup();
+            v
+        };
+        let textured: Vec<String> = used_materials
+            .iter()
+            .filter(|m| m.texture.is_some())
+            .map(|m| m.name.clone())
+            .collect();
+        let emitters: Vec<String> = used_materials
+            .iter()
+            .filter(|m| m.emission.max_element() > 0.0)
+            .map(|m| m.name.clone())
+            .collect();
+        let smooth = scene
+            .tri_shading_normals
+            .iter()
+            .filter(|c| c.iter().all(|n| *n != crate::math::Vec3::ZERO))
+            .count();
+        let delta_bsdfs: Vec<String> = used_materials
+            .iter()
+            .filter(|m| m.bsdf.has_delta_component())
+            .map(|m| m.name.clone())
+            .collect();
+        let lens = scene.lens;
+        let prims = scene.primitive_count();
+
+        let mut effects = Vec::new();
+        let mut add = |name: &'static str, names: Vec<String>, what: &str, code: &'static str| {
+            let on = !names.is_empty();
+            effects.push(Effect {
+                name,
+                on,
+                because: if on {
+                    format!("{what} {}", list(&names))
+                } else {
+                    format!("no {what}")
+                },
+                code,
+            });
+        };
+        add(
+            "diffuse",
+            of_type("diffuse"),
+            "diffuse materials",
+            "Lambertian eval/sample (bsdf/diffuse.rs)",
+        );
+        add(
+            "mirror",
+            of_type("mirror"),
+            "mirror materials",
+            "delta reflection (bsdf/mirror.rs)",
+        );
+        add(
+            "glass",
+            of_type("glass"),
+            "glass materials",
+            "Fresnel reflection and refraction, eta^2 roulette scale (bsdf/glass.rs)",
+        );
+        add(
+            "conductor",
+            of_type("conductor"),
+            "conductor materials",
+            "microfacet conductor, complex Fresnel, VNDF sampling (bsdf/conductor.rs)",
+        );
+        add(
+            "plastic",
+            of_type("plastic"),
+            "plastic materials",
+            "coated diffuse with dielectric Fresnel (bsdf/plastic.rs)",
+        );
+        add(
+            "texture",
+            textured,
+            "textured materials",
+            "bilinear albedo lookup at the hit's UV (texture.rs)",
+        );
+        add(
+            "area_light",
+            emitters,
+            "emissive materials",
+            "emission lookup at hits, area-light sampling, MIS (light/mod.rs)",
+        );
+        add(
+            "point_light",
+            (0..scene.point_lights.len())
+                .map(|i| format!("point light {i}"))
+                .collect(),
+            "point lights",
+            "delta light samples, MIS weight 1 (light/point.rs)",
+        );
+        add(
+            "directional_light",
+            (0..scene.directional_lights.len())
+                .map(|i| format!("directional light {i}"))
+                .collect(),
+            "directional lights",
+            "delta light samples, MIS weight 1 (light/directional.rs)",
+        );
+        add(
+            "environment",
+            scene
+                .environment
+                .map(|e| vec![format!("radiance {e}")])
+                .unwrap_or_default(),
+            "uniform environment",
+            "radiance on escape, uniform sphere sampling (light/mod.rs)",
+        );
+        add(
+            "environment_map",
+            if scene.environment_map.is_some() {
+                vec!["environment light with `file`".to_string()]
+            } else {
+                Vec::new()
+            },
+            "environment map",
+            "map lookup on escape, 2D piecewise-constant sampling (light/envmap.rs)",
+        );
+        add(
+            "sphere",
+            if scene.spheres.is_empty() {
+                Vec::new()
+            } else {
+                vec![format!("{} spheres", scene.spheres.len())]
+            },
+            "analytic spheres",
+            "sphere hit points and UVs, cone sampling of emissive spheres (scene, light/mod.rs)",
+        );
+        add(
+            "smooth_normals",
+            if smooth > 0 {
+                vec![format!("{smooth} triangles with vertex normals")]
+            } else {
+                Vec::new()
+            },
+            "vertex normals",
+            "interpolated shading normals, leak checks, terminator offset (integrator)",
+        );
+        add(
+            "thin_lens",
+            if lens.is_pinhole() {
+                Vec::new()
+            } else {
+                vec![format!(
+                    "aperture_radius {} focus_distance {}",
+                    lens.aperture_radius, lens.focus_distance
+                )]
+            },
+            "camera aperture",
+            "lens sample per camera ray (camera.rs)",
+        );
+        add(
+            "indirect",
+            if settings.max_depth >= 2 && prims > 0 {
+                vec![format!("max_depth {}", settings.max_depth)]
+            } else {
+                Vec::new()
+            },
+            "bounces past the first (max_depth >= 2 with something to bounce off)",
+            "recursive BSDF-sampled continuation with Russian roulette (integrator)",
+        );
+        let on = |n: &str| effects.iter().any(|e| e.name == n && e.on);
+        let kernel = Kernel {
+            materials: ["mirror", "glass", "conductor", "plastic", "texture"]
+                .iter()
+                .any(|n| on(n)),
+            delta: !delta_bsdfs.is_empty() || on("point_light") || on("directional_light"),
+            environment: on("environment") || on("environment_map"),
+            emitters: on("area_light"),
+            shapes: on("sphere") || on("smooth_normals"),
+            lens: on("thin_lens"),
+        };
+        Plan { effects, kernel }
+    }
+
+    /// The names of the effects that are on.
+    pub fn on(&self) -> Vec<&'static str> {
+        self.effects
+            .iter()
+            .filter(|e| e.on)
+            .map(|e| e.name)
+            .collect()
+    }
+
+    /// The kernel `mode` runs.
+    pub fn kernel_for(&self, mode: PlanMode) -> Kernel {
+        match mode {
+            PlanMode::Specialised => self.kernel,
+            PlanMode::General => Kernel::GENERAL,
+        }
+    }
+
+    /// The plan as `embertrace plan` prints it.
+    pub fn text(&self) -> String {
+        let mut s = String::new();
+        let width = EFFECTS.iter().map(|n| n.len()).max().unwrap_or(0);
+        for e in &self.effects {
+            let _ = writeln!(
+                s,
+                "{:<width$}  {:<3}  {}",
+                e.name,
+                if e.on { "on" } else { "off" },
+                e.because
+            );
+            if e.on {
+                let _ = writeln!(s, "{:<width$}       runs: {}", "", e.code);
+            }
+        }
+        let _ = writeln!(s, "kernel: {}", self.kernel.describe());
+        s
+    }
+
+    /// The plan as JSON: `effects` (the names that are on), `kernel`, and
+    /// `details` (every effect with `name`, `on`, `because` and `code`).
+    pub fn json(&self) -> String {
+        let details: Vec<serde_json::Value> = self
+            .effects
+            .iter()
+            .map(|e| {
+                serde_json::json!({
+                    "name": e.name, "on": e.on, "because": e.because, "code": e.code
+                })
+            })
+            .collect();
+        let v = serde_json::json!({
+            "effects": self.on(),
+            "kernel": self.kernel.describe(),
+            "details": details,
+        });
+        serde_json::to_string_pretty(&v).expect("strings and booleans serialise") + "\n"
+    }
+}
