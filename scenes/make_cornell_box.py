@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """Writes scenes/cornell-box.obj and .mtl: the classic Cornell box in a 2 x 2 x 2
 frame (floor y = 0, ceiling y = 2, back wall z = -1, red wall x = -1, green wall
-x = +1), two boxes, and a ceiling area light facing down.
+x = +1), two boxes, and a ceiling area light facing down; and
+scenes/cornell-empty.obj: the same room and light without the boxes (for
+scenes that put their own objects in it, such as cornell-spheres.toml).
 
 Albedos and light radiance are the values of the widely used RGB Cornell box
 (Bitterli's rendering resources and Mitsuba 3's cbox scene). Every quad winds
@@ -47,20 +49,33 @@ quad((1, 0, -1), (1, 0, 1), (1, 2, 1), (1, 2, -1), "green")  # right wall, -x
 # light: 0.47 x 0.38, just below the ceiling, facing down
 lx, lz, ly = 0.235, 0.19, 1.99
 quad((-lx, ly, -lz), (lx, ly, -lz), (lx, ly, lz), (-lx, ly, lz), "light")
+room = (len(verts), len(faces))
 box(0.33, 0.37, 0.6, 0.6, 0.6, -17.0, "white")  # short box
 box(-0.34, -0.28, 0.6, 1.2, 0.6, 17.0, "white")  # tall box
 
-with open(os.path.join(here, "cornell-box.obj"), "w") as f:
-    f.write("# The Cornell box, written by scenes/make_cornell_box.py\n")
-    f.write("mtllib cornell-box.mtl\n")
-    for v in verts:
-        f.write("v %.6f %.6f %.6f\n" % v)
-    current = None
-    for mat, (a, b, c) in faces:
-        if mat != current:
-            f.write("usemtl %s\n" % mat)
-            current = mat
-        f.write("f %d %d %d\n" % (a, b, c))
+
+
+def write_obj(name, title, verts, faces):
+    with open(os.path.join(here, name), "w") as f:
+        f.write("# %s, written by scenes/make_cornell_box.py\n" % title)
+        f.write("mtllib cornell-box.mtl\n")
+        for v in verts:
+            f.write("v %.6f %.6f %.6f\n" % v)
+        current = None
+        for mat, (a, b, c) in faces:
+            if mat != current:
+                f.write("usemtl %s\n" % mat)
+                current = mat
+            f.write("f %d %d %d\n" % (a, b, c))
+
+
+write_obj("cornell-box.obj", "The Cornell box", verts, faces)
+write_obj(
+    "cornell-empty.obj",
+    "The Cornell box without its boxes",
+    verts[: room[0]],
+    faces[: room[1]],
+)
 
 with open(os.path.join(here, "cornell-box.mtl"), "w") as f:
     f.write("# Cornell box materials (RGB values of the common cbox scene)\n")

@@ -89,7 +89,7 @@ fn list(names: &[String]) -> String {
     let mut s = names
         .iter()
         .take(3)
-        .map(|n| format!("`{n}`"))
+        .map(|n| n.to_string())
         .collect::<Vec<_>>()
         .join(", ");
     if names.len() > 3 {
@@ -117,7 +117,7 @@ impl Plan {
             let mut v: Vec<String> = used_materials
                 .iter()
                 .filter(|m| m.type_name() == t)
-                .map(|m| m.name.clone())
+                .map(|m| format!("`{}`", m.name))
                 .collect();
             v.dedup();
             v
@@ -125,12 +125,12 @@ impl Plan {
         let textured: Vec<String> = used_materials
             .iter()
             .filter(|m| m.texture.is_some())
-            .map(|m| m.name.clone())
+            .map(|m| format!("`{}`", m.name))
             .collect();
         let emitters: Vec<String> = used_materials
             .iter()
             .filter(|m| m.emission.max_element() > 0.0)
-            .map(|m| m.name.clone())
+            .map(|m| format!("`{}`", m.name))
             .collect();
         let smooth = scene
             .tri_shading_normals

@@ -425,7 +425,7 @@ impl<'a> PathTracer<'a> {
             );
         }
         let material = &self.scene.materials[m];
-        let Some(t) = material.texture else {
+        let Some(t) = &material.texture else {
             return self.bounce::<Bsdf, M, D, E, A, S>(
                 its,
                 &material.bsdf,
@@ -437,9 +437,7 @@ impl<'a> PathTracer<'a> {
             );
         };
         let uv = self.scene.uv(its.prim, &its.sp, its.u, its.v);
-        let albedo = self.scene.textures[t as usize]
-            .eval(uv)
-            .clamp(Vec3::ZERO, Vec3::ONE);
+        let albedo = t.eval(uv).clamp(Vec3::ZERO, Vec3::ONE);
         let textured = match &material.bsdf {
             Bsdf::Plastic(p) => Bsdf::Plastic(p.with_diffuse(albedo)),
             _ => Bsdf::Diffuse(Diffuse { albedo }),

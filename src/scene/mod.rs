@@ -18,6 +18,7 @@ use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
 use crate::math::{Ray, SurfacePoint, Vec2, Vec3, triangle_normal};
 use crate::texture::ImageTexture;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 pub use limits::{MAX_COORDINATE, MAX_PIXELS, MAX_RESOLUTION, MAX_TRIANGLES, MAX_VERTICES};
 pub use obj::load_obj_mesh;
@@ -30,10 +31,10 @@ pub struct Material {
     /// How the surface scatters light. Checked by [`Bsdf::validate`] when
     /// loaded.
     pub bsdf: Bsdf,
-    /// An albedo texture (index into [`Scene::textures`]) that replaces the
+    /// An albedo texture (shared by every material that names its file) that replaces the
     /// diffuse albedo of a `diffuse` BSDF or the base of a `plastic` one,
     /// looked up at the surface's texture coordinates.
-    pub texture: Option<u32>,
+    pub texture: Option<Arc<ImageTexture>>,
     /// Emitted radiance (an area light when non-zero).
     pub emission: Vec3,
     /// Emit from both sides (otherwise only from the front, where the
@@ -162,8 +163,6 @@ pub struct Scene {
     pub spheres: Vec<Sphere>,
     /// Material index per sphere.
     pub sphere_material: Vec<u32>,
-    /// Albedo textures, indexed by [`Material::texture`].
-    pub textures: Vec<ImageTexture>,
     /// Radiance of the uniform environment light, if any.
     pub environment: Option<Vec3>,
     /// The image-based environment light, if any.
@@ -469,7 +468,6 @@ impl SceneBuilder {
                 tri_shading_normals: Vec::new(),
                 spheres: Vec::new(),
                 sphere_material: Vec::new(),
-                textures: Vec::new(),
                 environment: None,
                 environment_map: None,
                 point_lights: Vec::new(),

@@ -1,5 +1,8 @@
-//! Wavefront OBJ/MTL meshes through tobj. MTL `Kd` is the diffuse albedo and
-//! `Ke` the emitted radiance (an area light, front side only).
+//! Wavefront OBJ/MTL meshes through tobj. MTL `Kd` is the diffuse albedo,
+//! `Ke` the emitted radiance (an area light, front side only), and `illum`,
+//! `Ks`, `Ns`, `Ni` and `map_Kd` choose other materials ([`convert_material`]'s
+//! table). Texture coordinates (`vt`) and vertex normals (`vn`) are kept per
+//! triangle corner: the normals give smooth shading.
 //!
 //! tobj reports malformed files without line numbers, and reads a few things
 //! differently from the OBJ files people have (a comment after a value is an
@@ -17,10 +20,13 @@
 
 use super::limits::{MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
 use super::{Material, MeshData, Scene, SceneBuilder, Transform};
+use crate::bsdf::{Bsdf, Diffuse, Glass, Mirror, Plastic};
 use crate::error::{Error, Result};
-use crate::math::Vec3;
+use crate::math::{Vec2, Vec3};
+use crate::texture::ImageTexture;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Read `path` as one mesh (all its objects merged), with its materials.
 pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
@@ -83,8 +89,10 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
     let lib_file = obj.mtllibs.first().map_or(path.to_path_buf(), |(name, _)| {
         path.parent().unwrap_or(Path::new("")).join(name)
     });
+    let mut textures: HashMap<String, Arc<ImageTexture>> = HashMap::new();
     for m in &tobj_materials {
-        mesh.materials.push(convert_material(m, &lib_file)?);
+        mesh.materials
+            .push(convert_material(m, &lib_file, &mut textures)?);
     }
     let default_material = mesh.materials.len() as u32;
     mesh.materials.push(Material::default());
@@ -99,6 +107,7 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
             .material_id
             .filter(|&i| i < tobj_materials.len())
             .map_or(default_material, |i| i as u32);
+        let first = mesh.indices.len();
         for t in m.indices.chunks_exact(3) {
             if t.iter().any(|&i| i >= count) {
                 return Err(Error::input(
@@ -110,40 +119,148 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
             mesh.indices.push([t[0] + base, t[1] + base, t[2] + base]);
             mesh.tri_material.push(mat);
         }
+        // per-corner texture coordinates and normals, when every face of the
+        // object has them (`f v/vt/vn`); otherwise zeros (no UV, flat)
+        let corners = m.indices.len();
+        let uvs = (m.texcoord_indices.len() == corners).then(|| {
+            corner_values(&m.texcoord_indices, &m.texcoords, 2, |c| {
+                Vec2::new(c[0], c[1])
+            })
+        });
+        let normals = (m.normal_indices.len() == corners).then(|| {
+            corner_values(&m.normal_indices, &m.normals, 3, |c| {
+                Vec3::new(c[0], c[1], c[2])
+            })
+        });
+        if let Some(uvs) = uvs.flatten() {
+            mesh.uvs.resize(first, [Vec2::ZERO; 3]);
+            mesh.uvs.extend(uvs);
+        }
+        if let Some(ns) = normals.flatten() {
+            mesh.normals.resize(first, [Vec3::ZERO; 3]);
+            mesh.normals.extend(ns);
+        }
+    }
+    let n = mesh.indices.len();
+    if !mesh.uvs.is_empty() {
+        mesh.uvs.resize(n, [Vec2::ZERO; 3]);
+    }
+    if !mesh.normals.is_empty() {
+        mesh.normals.resize(n, [Vec3::ZERO; 3]);
     }
     Ok(mesh)
 }
 
-fn convert_material(m: &tobj::Material, file: &Path) -> Result<Material> {
+/// Each triangle's three corner values of an attribute with `width`
+/// components per value, or `None` when an index is out of range or a value
+/// is not finite.
+fn corner_values<T: Copy>(
+    indices: &[u32],
+    values: &[f32],
+    width: usize,
+    make: impl Fn(&[f32]) -> T,
+) -> Option<Vec<[T; 3]>> {
+    let get = |i: u32| {
+        let c = values.get(i as usize * width..(i as usize + 1) * width)?;
+        c.iter().all(|x| x.is_finite()).then(|| make(c))
+    };
+    indices
+        .chunks_exact(3)
+        .map(|t| Some([get(t[0])?, get(t[1])?, get(t[2])?]))
+        .collect()
+}
+
+/// The Phong exponent `Ns` as a microfacet roughness: `alpha = sqrt(2 / (Ns +
+/// 2))`, the Beckmann width whose normal distribution has the same peak
+/// shape as a Blinn-Phong lobe of that exponent (Walter et al. 2007,
+/// "Microfacet Models for Refraction through Rough Surfaces", section 5.2).
+/// `Ns = 0` gives `alpha = 1`; large `Ns` tends to 0 (a smooth coat).
+pub fn ns_to_alpha(ns: f32) -> f32 {
+    (2.0 / (ns.max(0.0) + 2.0)).sqrt()
+}
+
+/// An MTL material as a [`Material`]:
+///
+/// | MTL | material |
+/// |---|---|
+/// | `illum 3` | `mirror` with `reflectance = Ks` (1 when absent) |
+/// | `illum 4`, `6` or `7` | `glass` with `ior = Ni` (1.5 when absent) |
+/// | `illum 2` with a non-black `Ks` and an `Ns` | `plastic` with `diffuse = Kd`, `ior = Ni` (1.5), `alpha` from `Ns` ([`ns_to_alpha`]) |
+/// | anything else | `diffuse` with `Kd` |
+///
+/// The coat of a plastic reflects by its Fresnel factor, so the size of `Ks`
+/// only switches the coat on. `map_Kd` is an albedo texture (relative to the
+/// MTL file) for a diffuse or plastic material; `Ke` is emission.
+fn convert_material(
+    m: &tobj::Material,
+    file: &Path,
+    textures: &mut HashMap<String, Arc<ImageTexture>>,
+) -> Result<Material> {
+    let fail = |msg: String| Error::input(file, None, format!("material `{}`: {msg}", m.name));
     // prepare_mtl has checked each colour line; this guards the defaults
     let colour = |name: &str, c: Option<[f32; 3]>, default: Vec3| -> Result<Vec3> {
         let v = c.map_or(default, Vec3::from);
         if !v.is_finite() || v.min_element() < 0.0 {
-            return Err(Error::input(
-                file,
-                None,
-                format!(
-                    "material `{}`: {name} must be finite and non-negative, got {v}",
-                    m.name
-                ),
-            ));
+            return Err(fail(format!(
+                "{name} must be finite and non-negative, got {v}"
+            )));
         }
         Ok(v)
     };
     let albedo = colour("Kd", m.diffuse, Vec3::splat(0.8))?;
     if albedo.max_element() > 1.0 {
-        return Err(Error::input(
-            file,
-            None,
-            format!(
-                "material `{}`: Kd must be at most 1 (energy conservation), got {albedo}",
-                m.name
-            ),
-        ));
+        return Err(fail(format!(
+            "Kd must be at most 1 (energy conservation), got {albedo}"
+        )));
     }
+    let ks = colour("Ks", m.specular, Vec3::ZERO)?;
+    let ior = m.optical_density.unwrap_or(1.5);
+    let bsdf = match m.illumination_model {
+        Some(3) => {
+            let reflectance = colour("Ks", m.specular, Vec3::ONE)?;
+            Bsdf::Mirror(Mirror { reflectance })
+        }
+        Some(4 | 6 | 7) => Bsdf::Glass(Glass {
+            ior,
+            ..Glass::default()
+        }),
+        Some(2) if ks.max_element() > 0.0 && m.shininess.is_some() => {
+            let alpha = ns_to_alpha(m.shininess.unwrap_or(0.0));
+            Bsdf::Plastic(
+                Plastic::new(albedo, ior, alpha)
+                    .map_err(|e| fail(format!("as plastic (illum 2 with Ks and Ns): {e}")))?,
+            )
+        }
+        _ => Bsdf::Diffuse(Diffuse { albedo }),
+    };
+    bsdf.validate()
+        .map_err(|e| fail(format!("{e} (from Ks, Ni or Kd)")))?;
+    let texture = match &m.diffuse_texture {
+        Some(name) if matches!(bsdf, Bsdf::Diffuse(_) | Bsdf::Plastic(_)) => {
+            let t = match textures.get(name) {
+                Some(t) => t.clone(),
+                None => {
+                    let full = file.parent().unwrap_or(Path::new("")).join(name);
+                    if !full.is_file() {
+                        return Err(fail(format!(
+                            "map_Kd `{name}` not found (expected a .png or .exr next to the MTL file)"
+                        )));
+                    }
+                    let t = Arc::new(ImageTexture::load(&full)?);
+                    textures.insert(name.clone(), t.clone());
+                    t
+                }
+            };
+            Some(t)
+        }
+        _ => None,
+    };
     Ok(Material {
+        name: m.name.clone(),
+        bsdf,
+        texture,
         emission: colour("Ke", m.emissive, Vec3::ZERO)?,
-        ..Material::diffuse(&m.name, albedo)
+        two_sided: false,
     })
 }
 

@@ -45,6 +45,7 @@ use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use std::collections::HashMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use toml::Spanned;
 
 #[derive(Deserialize)]
@@ -307,17 +308,16 @@ fn check_colour(path: &Path, line: Option<usize>, what: &str, c: Rgb) -> Result<
 /// Textures named by the scene file, each loaded once.
 #[derive(Default)]
 struct Textures {
-    index: HashMap<PathBuf, u32>,
-    list: Vec<ImageTexture>,
+    loaded: HashMap<PathBuf, Arc<ImageTexture>>,
 }
 
 impl Textures {
-    /// The index of the texture at `file` (relative to the scene's folder),
-    /// loading it on first use.
-    fn get(&mut self, path: &Path, line: Option<usize>, file: &str) -> Result<u32> {
+    /// The texture at `file` (relative to the scene's folder), loaded on
+    /// first use.
+    fn get(&mut self, path: &Path, line: Option<usize>, file: &str) -> Result<Arc<ImageTexture>> {
         let full = path.parent().unwrap_or(Path::new("")).join(file);
-        if let Some(&i) = self.index.get(&full) {
-            return Ok(i);
+        if let Some(t) = self.loaded.get(&full) {
+            return Ok(t.clone());
         }
         if !full.is_file() {
             return Err(Error::input(
@@ -328,11 +328,9 @@ impl Textures {
                 ),
             ));
         }
-        let t = ImageTexture::load(&full)?;
-        let i = self.list.len() as u32;
-        self.list.push(t);
-        self.index.insert(full, i);
-        Ok(i)
+        let t = Arc::new(ImageTexture::load(&full)?);
+        self.loaded.insert(full, t.clone());
+        Ok(t)
     }
 }
 
@@ -392,7 +390,7 @@ fn apply_material(
                     None => mat.albedo().unwrap_or(Vec3::splat(0.8)),
                 };
                 mat.bsdf = Bsdf::Diffuse(Diffuse { albedo });
-                mat.texture = texture.or(mat.texture);
+                mat.texture = texture.or(mat.texture.take());
             }
         }
         Some(kind) => {
@@ -667,7 +665,6 @@ pub fn load(path: &Path) -> Result<Scene> {
     }
 
     let scene = b.scene_mut();
-    scene.textures = std::mem::take(&mut textures.list);
     let light_lines = table_lines(&text, "light");
     for (i, l) in file.light.iter().enumerate() {
         let line = light_lines.get(i).copied();
