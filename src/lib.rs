@@ -17,6 +17,7 @@ pub mod bench;
 pub mod bsdf;
 pub mod camera;
 pub mod diff;
+pub mod effects_bench;
 pub mod film;
 pub mod integrator;
 pub mod light;

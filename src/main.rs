@@ -181,6 +181,17 @@ struct BenchArgs {
     reps: usize,
     #[command(flatten)]
     build: BuildArgs,
+    /// Instead of ray throughput, measure what each effect costs per sample:
+    /// the scene under its specialised kernel and --plan general, then with
+    /// one effect added at a time.
+    #[arg(long)]
+    effects: bool,
+    /// Resolution of the --effects renders: width height.
+    #[arg(short = 'r', long = "resolution", num_args = 2, value_names = ["W", "H"], default_values_t = [128, 128])]
+    resolution: Vec<u32>,
+    /// Samples per pixel of the --effects renders.
+    #[arg(short = 's', long = "spp", default_value_t = 16)]
+    spp: u32,
 }
 
 #[derive(Args)]
@@ -550,6 +561,39 @@ fn run_bench(args: BenchArgs) -> Result<()> {
         ));
     }
     let scene = Scene::load(&args.scene)?;
+    if args.effects {
+        let [w, h] = [args.resolution[0], args.resolution[1]];
+        if w == 0 || h == 0 || w > MAX_RESOLUTION || h > MAX_RESOLUTION || args.spp == 0 {
+            return Err(Error::Settings(format!(
+                "--effects renders {w} x {h} at {} spp: each side 1..={MAX_RESOLUTION}, at least 1 spp",
+                args.spp
+            )));
+        }
+        let settings = embertrace::effects_bench::EffectsBenchSettings {
+            backend: args
+                .accel
+                .as_ref()
+                .and_then(|l| l.first().copied())
+                .unwrap_or_else(Backend::default_backend),
+            resolution: [w, h],
+            spp: args.spp,
+            reps: args.reps,
+            threads: args.threads,
+            options: args.build.options(),
+        };
+        let integrator = IntegratorSettings {
+            max_depth: scene.render.max_depth,
+            ..IntegratorSettings::default()
+        };
+        let report = embertrace::effects_bench::run(&scene, &settings, integrator, &|line| {
+            eprintln!("{line}")
+        })?;
+        print!("{}", report.table());
+        if let Some(j) = &args.json {
+            write_json(j, &report)?;
+        }
+        return Ok(());
+    }
     let backends = match args.accel {
         Some(list) => list,
         None => Backend::available()
