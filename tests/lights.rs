@@ -2,7 +2,9 @@
 //! Mitsuba 3's values, chi-square fits of the 2D distribution and of the
 //! environment's direction sampling (hard case 12), and irradiance furnaces
 //! for constant and image environments (hard case 23's estimator without the
-//! geometry).
+//! geometry); and the scene's light set: an emissive sphere sampled in the
+//! cone it subtends, from near and far, and the power-proportional choice
+//! among lights of every kind.
 
 mod common;
 
@@ -17,7 +19,7 @@ use std::f64::consts::PI;
 use std::path::PathBuf;
 
 /// Chi-square tests in this file, for the Sidak correction.
-const CHI2_TESTS: usize = 2;
+const CHI2_TESTS: usize = 4;
 const N: usize = 1_000_000;
 
 fn data(name: &str) -> PathBuf {
@@ -283,4 +285,130 @@ fn furnace_image_environment_matches_quadrature() {
             "channel {c}: too noisy to test"
         );
     }
+}
+
+/// The lights of a scene given as TOML text.
+fn scene_lights(toml: &str) -> (embertrace::scene::Scene, embertrace::light::Lights) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.toml");
+    std::fs::write(&path, toml).unwrap();
+    let scene = embertrace::scene::Scene::load(&path).unwrap();
+    let lights = embertrace::light::Lights::new(&scene);
+    (scene, lights)
+}
+
+fn point_at(p: Vec3) -> embertrace::math::SurfacePoint {
+    embertrace::math::SurfacePoint {
+        p,
+        p_err: Vec3::ZERO,
+        n: Vec3::Y,
+    }
+}
+
+#[test]
+fn chi2_emissive_sphere_cone() {
+    // pbrt-v4's cone sampling of a sphere: directions uniform over the cone
+    // of half-angle theta_max (cos theta uniform, phi uniform), every point
+    // on the visible cap, density 1 / (2 pi (1 - cos theta_max)) that
+    // `pdf_area` reproduces. From far away the Taylor branch is taken.
+    let (scene, lights) = scene_lights(
+        "[[sphere]]\ncenter = [0.0, 0.0, 0.0]\nradius = 0.5\nmaterial = { emission = 2.0 }\n",
+    );
+    for (k, dist) in [1.3f32, 200.0].into_iter().enumerate() {
+        let from = point_at(Vec3::new(0.0, 0.0, dist));
+        let sin2 = (0.5 / dist as f64).powi(2);
+        let cos_max = (1.0 - sin2).sqrt();
+        let one_minus = if sin2 < 0.000_685_23 {
+            0.5 * sin2
+        } else {
+            1.0 - cos_max
+        };
+        let (nu, nphi) = (10, 12);
+        let mut obs = vec![0.0; nu * nphi];
+        let mut s = Sampler::new(11 + k as u64, 0, 0);
+        for _ in 0..N / 4 {
+            let ls = lights
+                .sample(&scene, &from, s.next_1d(), s.next_2d())
+                .expect("a sample");
+            // on the sphere, facing the point
+            let to = from.p + ls.wi * ls.shadow.t_max;
+            assert!(ls.wi.dot(-Vec3::Z) > 0.0 && !ls.delta);
+            // 1 - cos from the transverse components: exact for narrow cones
+            let w = ls.wi.as_dvec3();
+            let one_minus_cos = (w.x * w.x + w.y * w.y) / (1.0 - w.z);
+            let pdf = 1.0 / (2.0 * PI * one_minus);
+            assert!(
+                (ls.pdf as f64 / pdf - 1.0).abs() < 1e-3,
+                "{} vs {pdf}",
+                ls.pdf
+            );
+            let q = embertrace::math::SurfacePoint::on_sphere(Vec3::ZERO, 0.5, to);
+            let back = lights.pdf_area(&from, 0, &q) as f64;
+            assert!((back / pdf - 1.0).abs() < 1e-3, "{back} vs {pdf}");
+            let t = (one_minus_cos / one_minus).clamp(0.0, 0.999_999);
+            let phi = (ls.wi.y as f64).atan2(ls.wi.x as f64) + PI;
+            let j = ((phi / (2.0 * PI)) * nphi as f64).min(nphi as f64 - 1.0) as usize;
+            obs[(t * nu as f64) as usize * nphi + j] += 1.0;
+        }
+        let exp = vec![(N / 4) as f64 / (nu * nphi) as f64; nu * nphi];
+        chi2_test(CHI2_TESTS, &format!("sphere cone at {dist}"), &obs, &exp);
+    }
+}
+
+#[test]
+fn chi2_light_choice_follows_power() {
+    // one light of each kind, each chosen in proportion to its power:
+    // area lights L A pi, points 4 pi I, directional E pi r^2, environment
+    // pi^2 r^2 L, with r the scene's bounding radius (here sqrt(3))
+    let (scene, lights) = scene_lights(
+        r#"
+[[sphere]]
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+material = { emission = 0.5 }
+[[light]]
+type = "point"
+position = [0.0, 3.0, 0.0]
+intensity = 2.0
+[[light]]
+type = "directional"
+direction = [0.0, -1.0, 0.0]
+irradiance = 0.4
+[[light]]
+type = "environment"
+radiance = 0.05
+"#,
+    );
+    // the bounds are the unit sphere's box: squared half diagonal 3
+    let r2 = 3.0f64;
+    let powers = [
+        0.5 * 4.0 * PI * PI,
+        4.0 * PI * 2.0,
+        0.4 * PI * r2,
+        0.05 * PI * PI * r2,
+    ];
+    let total: f64 = powers.iter().sum();
+    let from = point_at(Vec3::new(0.0, -3.0, 0.0));
+    let mut obs = [0.0; 4];
+    let mut s = Sampler::new(5, 0, 0);
+    let n = N / 4;
+    for _ in 0..n {
+        let Some(ls) = lights.sample(&scene, &from, s.next_1d(), s.next_2d()) else {
+            continue;
+        };
+        let kind = if ls.delta {
+            if ls.shadow.t_max.is_finite() && ls.wi.y > 0.99 && ls.shadow.t_max < 7.0 {
+                1
+            } else {
+                2
+            }
+        } else if ls.shadow.t_max.is_finite() && ls.shadow.t_max < 10.0 {
+            0
+        } else {
+            3
+        };
+        obs[kind] += 1.0;
+    }
+    let exp: Vec<f64> = powers.iter().map(|p| p / total * n as f64).collect();
+    chi2_test(CHI2_TESTS, "light choice", &obs, &exp);
 }
