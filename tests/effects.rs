@@ -471,3 +471,165 @@ fn environment_map_lights_a_floor_by_its_cosine_integral() {
         );
     }
 }
+
+/// A coarse UV sphere of radius 1 as OBJ text, with vertex normals (the
+/// true sphere's) when `normals` is set.
+fn coarse_sphere_obj(segments: usize, rings: usize, normals: bool) -> String {
+    let mut s = String::new();
+    for j in 0..=rings {
+        let theta = std::f32::consts::PI * j as f32 / rings as f32;
+        for i in 0..segments {
+            let phi = std::f32::consts::TAU * i as f32 / segments as f32;
+            let p = Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                -theta.sin() * phi.sin(),
+            );
+            s += &format!("v {} {} {}\n", p.x, p.y, p.z);
+            if normals {
+                s += &format!("vn {} {} {}\n", p.x, p.y, p.z);
+            }
+        }
+    }
+    let at = |j: usize, i: usize| j * segments + i % segments + 1;
+    for j in 0..rings {
+        for i in 0..segments {
+            let (a, b, c, d) = (at(j, i), at(j + 1, i), at(j + 1, i + 1), at(j, i + 1));
+            let f = |x: usize| {
+                if normals {
+                    format!("{x}//{x}")
+                } else {
+                    x.to_string()
+                }
+            };
+            if j > 0 {
+                s += &format!("f {} {} {}\n", f(a), f(b), f(d));
+            }
+            if j + 1 < rings {
+                s += &format!("f {} {} {}\n", f(b), f(c), f(d));
+            }
+        }
+    }
+    s
+}
+
+#[test]
+fn smooth_normals_leave_no_black_terminator_under_a_uniform_sky() {
+    // A coarse smooth sphere in a white environment. Near the silhouette
+    // some visible points have an interpolated normal facing away from the
+    // viewer; a Lambertian evaluated with that normal is black there. The
+    // shading rule bends such normals towards the viewer, so every pixel
+    // wholly on the sphere keeps most of rho (flat shading gives exactly
+    // rho); the test checks that such pixels exist.
+    let obj = coarse_sphere_obj(8, 5, true);
+    let scene = scene_from(
+        r#"
+[camera]
+origin = [0.0, 0.0, 4.0]
+target = [0.0, 0.0, 0.0]
+fov_y = 35.0
+[[mesh]]
+file = "s.obj"
+material = { diffuse = 0.5 }
+[[light]]
+type = "environment"
+radiance = 1.0
+"#,
+        &[("s.obj", obj.as_bytes())],
+    );
+    let plan = Plan::new(&scene, &IntegratorSettings::default());
+    assert!(plan.on().contains(&"smooth_normals"));
+    let res = 64;
+    let backend = Backend::default_backend();
+    let out = render_with(
+        &scene,
+        backend,
+        None,
+        IntegratorSettings::default(),
+        [res, res],
+        32,
+        4,
+    );
+    let acc = accel::build(backend, scene.soup(), AccelOptions::default()).unwrap();
+    let camera = scene.make_camera(res, res);
+    let (mut covered_pixels, mut facing_away) = (0, 0);
+    for y in 0..res {
+        for x in 0..res {
+            let at = |dx: f32, dy: f32| {
+                let ray =
+                    camera.generate_ray(embertrace::math::Vec2::new(x as f32 + dx, y as f32 + dy));
+                acc.intersect(&ray).map(|h| (ray, h))
+            };
+            // pixels wholly on the sphere: all four corners hit it
+            let corners = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)];
+            if !corners.iter().all(|(dx, dy)| at(*dx, *dy).is_some()) {
+                continue;
+            }
+            covered_pixels += 1;
+            let (ray, hit) = at(0.5, 0.5).unwrap();
+            let c = scene.tri_shading_normals[hit.prim as usize];
+            let ns = (1.0 - hit.u - hit.v) * c[0] + hit.u * c[1] + hit.v * c[2];
+            if ns.dot(-ray.d) < 0.0 {
+                facing_away += 1;
+            }
+            let v = out.film.mean(x, y).y;
+            assert!(v > 0.3, "pixel ({x}, {y}) on the sphere is {v}");
+            assert!(v < 0.5 + 0.1, "pixel ({x}, {y}) is {v}: brighter than rho");
+        }
+    }
+    assert!(covered_pixels > 600, "{covered_pixels} pixels");
+    assert!(
+        facing_away >= 5,
+        "only {facing_away} pixels see a normal facing away"
+    );
+}
+
+#[test]
+fn smooth_normals_never_let_light_through_the_surface() {
+    // A quad whose vertex normals lean far over, lit only by a point light
+    // behind it: the geometric surface blocks that light, so every pixel on
+    // the quad is exactly black, whatever the normals say. The same light in
+    // front lights it (the control).
+    let quad = b"v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n\
+vn -0.9 0 0.2\nvn 0.9 0 0.2\nvn 0.9 0 0.2\nvn -0.9 0 0.2\n\
+f 1//1 2//2 3//3\nf 1//1 3//3 4//4\n";
+    let lit = |z: f32, backend: Backend| {
+        let scene = scene_from(
+            &format!(
+                r#"
+[camera]
+origin = [0.0, 0.0, 3.0]
+target = [0.0, 0.0, 0.0]
+fov_y = 30.0
+[[mesh]]
+file = "q.obj"
+material = {{ diffuse = 0.9, two_sided = true }}
+[[light]]
+type = "point"
+position = [0.3, 0.2, {z}]
+intensity = 10.0
+"#
+            ),
+            &[("q.obj", &quad[..])],
+        );
+        let out = render_with(
+            &scene,
+            backend,
+            None,
+            IntegratorSettings::default(),
+            [16, 16],
+            8,
+            1,
+        );
+        assert_eq!(out.nonfinite.count, 0);
+        out.film.to_rgb_f32().iter().filter(|v| **v != 0.0).count()
+    };
+    for backend in Backend::available() {
+        assert_eq!(
+            lit(-0.05, backend),
+            0,
+            "{backend}: light leaked through the quad"
+        );
+        assert!(lit(0.5, backend) > 100, "{backend}: the control is dark");
+    }
+}

@@ -565,11 +565,14 @@ impl SceneBuilder {
             .extend(mesh.positions.iter().map(|&p| m.transform_point3(p)));
         let start = s.indices.len() as u32;
         // per-corner attributes line up with the triangles once any mesh has them
-        if !mesh.uvs.is_empty() && s.tri_uv.is_empty() {
-            s.tri_uv = vec![[Vec2::ZERO; 3]; s.indices.len()];
+        let keep_uv = !mesh.uvs.is_empty() || !s.tri_uv.is_empty();
+        let keep_normals = !mesh.normals.is_empty() || !s.tri_shading_normals.is_empty();
+        if keep_uv {
+            s.tri_uv.resize(s.indices.len(), [Vec2::ZERO; 3]);
         }
-        if !mesh.normals.is_empty() && s.tri_shading_normals.is_empty() {
-            s.tri_shading_normals = vec![[Vec3::ZERO; 3]; s.indices.len()];
+        if keep_normals {
+            s.tri_shading_normals
+                .resize(s.indices.len(), [Vec3::ZERO; 3]);
         }
         let normal_matrix = m.matrix3.inverse().transpose();
         let (mut out_of_range, mut degenerate) = (0usize, 0usize);
@@ -601,10 +604,10 @@ impl SceneBuilder {
             s.indices.push(idx);
             s.normals.push(n);
             s.tri_material.push(base_material + mat);
-            if !s.tri_uv.is_empty() {
+            if keep_uv {
                 s.tri_uv.push(uv);
             }
-            if !s.tri_shading_normals.is_empty() {
+            if keep_normals {
                 // a corner whose normal faces away from the triangle's front
                 // is flipped, so each interpolated normal is on the front
                 // side at that corner
