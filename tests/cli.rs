@@ -310,6 +310,118 @@ fn cases() -> Vec<Case> {
             expect: vec!["s.toml:1", "`\\nvironment`"],
         },
         Case {
+            name: "a key of another material type",
+            files: vec![
+                ("m.obj", GOOD_OBJ.into()),
+                (
+                    "s.toml",
+                    toml_with_mesh("material = { type = \"mirror\", ior = 1.5 }"),
+                ),
+            ],
+            scene: "s.toml",
+            expect: vec!["s.toml:5", "material.ior", "`mirror`"],
+        },
+        Case {
+            name: "unknown material type",
+            files: vec![
+                ("m.obj", GOOD_OBJ.into()),
+                ("s.toml", toml_with_mesh("material = { type = \"velvet\" }")),
+            ],
+            scene: "s.toml",
+            expect: vec!["s.toml:5", "velvet", "conductor"],
+        },
+        Case {
+            name: "glass with a zero index",
+            files: vec![
+                ("m.obj", GOOD_OBJ.into()),
+                (
+                    "s.toml",
+                    toml_with_mesh("material = { type = \"glass\", ior = 0 }"),
+                ),
+            ],
+            scene: "s.toml",
+            expect: vec!["s.toml:5", "`ior`"],
+        },
+        Case {
+            name: "unknown microfacet distribution",
+            files: vec![
+                ("m.obj", GOOD_OBJ.into()),
+                (
+                    "s.toml",
+                    toml_with_mesh(
+                        "material = { type = \"conductor\", distribution = \"phong\" }",
+                    ),
+                ),
+            ],
+            scene: "s.toml",
+            expect: vec!["s.toml:5", "ggx or beckmann"],
+        },
+        Case {
+            name: "texture file missing",
+            files: vec![
+                ("m.obj", GOOD_OBJ.into()),
+                ("s.toml", toml_with_mesh("material = { texture = \"t.png\" }")),
+            ],
+            scene: "s.toml",
+            expect: vec!["s.toml:5", "t.png", "not found"],
+        },
+        Case {
+            name: "sphere with a negative radius",
+            files: vec![(
+                "s.toml",
+                "[[sphere]]\ncenter = [0, 0, 0]\nradius = -1\n".into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:1", "sphere.radius"],
+        },
+        Case {
+            name: "point light without intensity",
+            files: vec![(
+                "s.toml",
+                "[[light]]\ntype = \"point\"\nposition = [0, 1, 0]\n".into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:1", "`intensity`"],
+        },
+        Case {
+            name: "directional light along a zero vector",
+            files: vec![(
+                "s.toml",
+                "[[light]]\ntype = \"directional\"\ndirection = [0, 0, 0]\nirradiance = 1\n"
+                    .into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:1", "`direction`"],
+        },
+        Case {
+            name: "environment map file missing",
+            files: vec![(
+                "s.toml",
+                "[[light]]\ntype = \"environment\"\nfile = \"sky.exr\"\n".into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:1", "sky.exr", "not found"],
+        },
+        Case {
+            name: "negative aperture",
+            files: vec![(
+                "s.toml",
+                "[camera]\norigin = [0, 0, 3]\ntarget = [0, 0, 0]\naperture_radius = -0.1\n"
+                    .into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:1", "aperture_radius"],
+        },
+        Case {
+            name: "map_Kd that does not exist",
+            files: vec![
+                ("m.obj", format!("mtllib m.mtl\nusemtl a\nvt 0 0\n{GOOD_OBJ}")),
+                ("m.mtl", "newmtl a\nKd 0.5 0.5 0.5\nmap_Kd none.png\n".into()),
+            ],
+            scene: "m.obj",
+            expect: vec!["m.mtl", "none.png"],
+        },
+        Case {
             name: "control character in the scene",
             files: vec![("s.toml", "[camera]\norigin = [0, 0, \u{0}]\n".into())],
             scene: "s.toml",

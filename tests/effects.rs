@@ -633,3 +633,25 @@ intensity = 10.0
         assert!(lit(0.5, backend) > 100, "{backend}: the control is dark");
     }
 }
+
+#[test]
+fn a_texture_on_a_mesh_without_uvs_is_an_error_naming_the_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("t.png"), gradient_png()).unwrap();
+    std::fs::write(
+        dir.path().join("m.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    let path = dir.path().join("s.toml");
+    std::fs::write(
+        &path,
+        "[[mesh]]\nfile = \"m.obj\"\nmaterial = { texture = \"t.png\" }\n",
+    )
+    .unwrap();
+    let e = Scene::load(&path).unwrap_err().to_string();
+    assert!(
+        e.contains("s.toml:1") && e.contains("mesh `m.obj`") && e.contains("texture coordinates"),
+        "{e}"
+    );
+}
