@@ -152,7 +152,7 @@ impl Plan {
                 name,
                 on,
                 because: if on {
-                    format!("{what} {}", list(&names))
+                    format!("{what}: {}", list(&names))
                 } else {
                     format!("no {what}")
                 },
@@ -276,7 +276,7 @@ impl Plan {
             } else {
                 Vec::new()
             },
-            "bounces past the first (max_depth >= 2 with something to bounce off)",
+            "bounces past the first (max_depth >= 2 and something to hit)",
             "recursive BSDF-sampled continuation with Russian roulette (integrator)",
         );
         let on = |n: &str| effects.iter().any(|e| e.name == n && e.on);
@@ -327,6 +327,10 @@ impl Plan {
             }
         }
         let _ = writeln!(s, "kernel: {}", self.kernel.describe());
+        let out = self.kernel.omitted();
+        if !out.is_empty() {
+            let _ = writeln!(s, "compiled out: {}", out.join("; "));
+        }
         s
     }
 

@@ -168,6 +168,22 @@ impl Kernel {
         lens: true,
     };
 
+    /// What a kernel without each flag leaves out, for the flags that are off.
+    pub fn omitted(&self) -> Vec<&'static str> {
+        [
+            (self.materials, "material dispatch, Fresnel and texture code"),
+            (self.delta, "delta-lobe and delta-light checks"),
+            (self.environment, "environment lookups on escape"),
+            (self.emitters, "emission lookups at hits"),
+            (self.shapes, "sphere and smooth-normal shading"),
+            (self.lens, "lens sampling"),
+        ]
+        .iter()
+        .filter(|(on, _)| !on)
+        .map(|(_, what)| *what)
+        .collect()
+    }
+
     /// The flags as a short string, e.g. `materials+delta`, or `minimal`.
     pub fn describe(&self) -> String {
         let on: Vec<&str> = [
@@ -557,7 +573,9 @@ impl<'a> PathTracer<'a> {
                 None if E => (self.lights.environment(wi), self.lights.pdf_environment(wi)),
                 Some(n) if A => (
                     self.lights.le(self.scene, n.prim, n.sp.n, n.wo),
-                    self.lights.pdf_area(&its.sp, n.prim, &n.sp),
+                    // the density light sampling had, from where it sampled
+                    self.lights
+                        .pdf_area(from.as_ref().unwrap_or(&its.sp), n.prim, &n.sp),
                 ),
                 _ => (Vec3::ZERO, 0.0),
             };
