@@ -310,14 +310,15 @@ radiance = 1.0
             out.rays.extension > 24 * 24 * 4,
             "{backend}: sphere not hit"
         );
-        // at depth 2 paths that stay inside lose their light
+        // at depth 1 a path that enters the glass cannot leave it: the
+        // centre keeps only the Fresnel reflection (about 0.04)
         let shallow = IntegratorSettings {
-            max_depth: 2,
+            max_depth: 1,
             ..settings
         };
         let dark = render_with(&scene, backend, None, shallow, [24, 24], 4, 1);
         let centre = dark.film.mean(12, 12);
-        assert!(centre.max_element() < 0.5, "{backend}: {centre}");
+        assert!(centre.max_element() < 0.2, "{backend}: {centre}");
     }
 }
 

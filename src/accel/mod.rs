@@ -18,6 +18,7 @@
 
 pub mod bvh;
 pub mod naive;
+pub mod sphere;
 pub mod triangle;
 
 #[cfg(any(feature = "embree", feature = "embree4"))]

@@ -3,15 +3,19 @@
 //! order, exactly as the BVH runs it in its leaves. Quadratic and slow; it is
 //! the oracle the other backends are checked against.
 
+use super::sphere::SphereSet;
 use super::triangle::{Tri4, WatertightRay};
 use super::{Accelerator, Hit, TriangleSoup};
 use crate::math::{Ray, Vec3};
 
-/// Brute force over a copy of the triangles, in blocks of four.
+/// Brute force over a copy of the triangles, in blocks of four, then over
+/// the spheres (which a small tree holds: it answers exactly as a scan, see
+/// [`SphereSet`]'s tests).
 pub struct Naive {
     blocks: Vec<Tri4>,
     /// Triangles in the last block (1 to 4).
     last: usize,
+    spheres: SphereSet,
 }
 
 impl Naive {
@@ -25,7 +29,11 @@ impl Naive {
             .collect();
         let blocks = tris.chunks(4).map(Tri4::new).collect();
         let last = tris.len().saturating_sub(1) % 4 + 1;
-        Naive { blocks, last }
+        Naive {
+            blocks,
+            last,
+            spheres: SphereSet::new(soup.spheres, soup.indices.len() as u32),
+        }
     }
 
     /// Each block with its lane mask.
@@ -44,7 +52,7 @@ impl Accelerator for Naive {
     }
 
     fn memory_bytes(&self) -> usize {
-        self.blocks.capacity() * std::mem::size_of::<Tri4>()
+        self.blocks.capacity() * std::mem::size_of::<Tri4>() + self.spheres.memory_bytes()
     }
 
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
@@ -58,7 +66,7 @@ impl Accelerator for Naive {
             wr.intersect4(block, lanes, t_max)
                 .fold_closest(block, &mut best, &mut t_max);
         }
-        best
+        with_spheres(&self.spheres, ray, best)
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
@@ -68,5 +76,26 @@ impl Accelerator for Naive {
         let wr = WatertightRay::new(ray);
         self.blocks()
             .any(|(block, lanes)| wr.intersect4(block, lanes, ray.t_max).mask != 0)
+            || self.spheres.any(ray)
+    }
+}
+
+/// The closest of the triangle hit `best` and the spheres' (a sphere wins
+/// only at a smaller `t`: on a tie the triangle's lower index wins).
+#[inline]
+pub(super) fn with_spheres(spheres: &SphereSet, ray: &Ray, best: Option<Hit>) -> Option<Hit> {
+    if spheres.is_empty() {
+        return best;
+    }
+    let mut s = best.map(|h| (h.t, h.prim));
+    spheres.closest(ray, &mut s);
+    match s {
+        Some((t, prim)) if best.is_none_or(|h| h.prim != prim) => Some(Hit {
+            t,
+            prim,
+            u: 0.0,
+            v: 0.0,
+        }),
+        _ => best,
     }
 }

@@ -171,7 +171,10 @@ impl Kernel {
     /// What a kernel without each flag leaves out, for the flags that are off.
     pub fn omitted(&self) -> Vec<&'static str> {
         [
-            (self.materials, "material dispatch, Fresnel and texture code"),
+            (
+                self.materials,
+                "material dispatch, Fresnel and texture code",
+            ),
             (self.delta, "delta-lobe and delta-light checks"),
             (self.environment, "environment lookups on escape"),
             (self.emitters, "emission lookups at hits"),

@@ -42,6 +42,7 @@ mod tests;
 pub use build::TreeStats;
 pub use node::{LEAF_MAX, MAX_TRIANGLES};
 
+use super::sphere::SphereSet;
 use super::triangle::Tri4;
 use super::{Accelerator, Hit, TriangleSoup};
 use crate::error::{Error, Result};
@@ -81,6 +82,9 @@ pub struct Bvh {
     /// multiple of the ray's distance to it).
     bounds: Aabb,
     stats: TreeStats,
+    /// The analytic spheres, in their own small tree, searched after the
+    /// triangles (empty, and skipped at once, in triangle-only scenes).
+    spheres: SphereSet,
 }
 
 impl Bvh {
@@ -114,6 +118,7 @@ impl Bvh {
         if prims.len() > MAX_TRIANGLES {
             return Err(too_many());
         }
+        let spheres = SphereSet::new(soup.spheres, soup.indices.len() as u32);
         if prims.is_empty() {
             return Ok(Bvh {
                 nodes: Vec::new(),
@@ -121,6 +126,7 @@ impl Bvh {
                 root: None,
                 bounds: Aabb::EMPTY,
                 stats: TreeStats::default(),
+                spheres,
             });
         }
         let bounds = prims.iter().fold(Aabb::EMPTY, |b, p| b.union(&p.bounds));
@@ -142,6 +148,7 @@ impl Bvh {
             root: Some(tree.root),
             bounds,
             stats: tree.stats,
+            spheres,
         })
     }
 
@@ -159,13 +166,15 @@ impl Accelerator for Bvh {
     fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<Node4>()
             + self.blocks.capacity() * std::mem::size_of::<Tri4>()
+            + self.spheres.memory_bytes()
     }
 
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        self.closest_hit(ray)
+        let best = self.closest_hit(ray);
+        super::naive::with_spheres(&self.spheres, ray, best)
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
-        self.any_hit(ray)
+        self.any_hit(ray) || (!self.spheres.is_empty() && ray.is_finite() && self.spheres.any(ray))
     }
 }

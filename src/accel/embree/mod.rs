@@ -37,6 +37,7 @@ mod device;
 mod scene;
 mod shim;
 mod sys;
+mod user;
 
 #[cfg(test)]
 mod tests;
@@ -60,6 +61,8 @@ const _: () = assert!(align_of::<sys::RTCRayHit>() >= 16 && align_of::<sys::RTCR
 pub struct EmbreeAccel {
     scene: Scene,
     skipped_nonfinite: AtomicU64,
+    /// Triangle count: sphere `i` is primitive `triangles + i`.
+    triangles: u32,
 }
 
 // SAFETY: after `new` returns, the Embree handles inside are used only for
@@ -106,6 +109,7 @@ impl EmbreeAccel {
         Ok(EmbreeAccel {
             scene,
             skipped_nonfinite: AtomicU64::new(0),
+            triangles: soup.indices.len() as u32,
         })
     }
 
@@ -184,9 +188,17 @@ impl Accelerator for EmbreeAccel {
         };
         shim::intersect1(&self.scene, &mut rayhit);
         let hit = rayhit.hit;
-        (hit.geomID != sys::RTC_INVALID_GEOMETRY_ID).then_some(Hit {
+        if hit.geomID == sys::RTC_INVALID_GEOMETRY_ID {
+            return None;
+        }
+        let prim = if hit.geomID == self.scene.sphere_geometry() {
+            self.triangles + hit.primID
+        } else {
+            hit.primID
+        };
+        Some(Hit {
             t: rayhit.ray.tfar,
-            prim: hit.primID,
+            prim,
             u: hit.u,
             v: hit.v,
         })

@@ -1,5 +1,5 @@
-//! [`Scene`]: a committed Embree scene holding one triangle mesh, built from a
-//! [`TriangleSoup`].
+//! [`Scene`]: a committed Embree scene holding one triangle mesh and one
+//! user geometry of analytic spheres, built from a [`TriangleSoup`].
 //!
 //! Embree API reference: `rtcNewScene`, `rtcSetSceneFlags`,
 //! `rtcSetSceneBuildQuality`, `rtcNewGeometry`, `rtcSetNewGeometryBuffer`,
@@ -9,7 +9,8 @@
 
 use super::device::{Device, backend_error};
 use super::sys;
-use crate::accel::{AccelOptions, TriangleSoup};
+use super::user::{self, SphereData};
+use crate::accel::{AccelOptions, Sphere, TriangleSoup};
 use crate::error::Result;
 use std::ptr::NonNull;
 
@@ -31,6 +32,12 @@ const BUILD_QUALITY: sys::RTCBuildQuality = sys::RTCBuildQuality::HIGH;
 pub(super) struct Scene {
     handle: NonNull<sys::RTCSceneTy>,
     device: Device,
+    /// The spheres the user geometry's callbacks read (boxed: Embree holds
+    /// a pointer to it), kept until after the scene is released.
+    spheres: Option<Box<SphereData>>,
+    /// The sphere geometry's ID, or `RTC_INVALID_GEOMETRY_ID` when there
+    /// are no spheres.
+    sphere_geom: u32,
 }
 
 impl Scene {
@@ -49,7 +56,12 @@ impl Scene {
             return Err(backend_error("rtcNewScene returned NULL".into()));
         };
         // From here on `scene` owns both handles and releases them on any error.
-        let mut scene = Scene { handle, device };
+        let mut scene = Scene {
+            handle,
+            device,
+            spheres: None,
+            sphere_geom: sys::RTC_INVALID_GEOMETRY_ID,
+        };
         scene.device.check("rtcNewScene")?;
         let flags = if options.robust {
             sys::RTCSceneFlags::ROBUST
@@ -68,6 +80,9 @@ impl Scene {
         if !soup.indices.is_empty() {
             scene.attach_triangles(soup)?;
         }
+        if !soup.spheres.is_empty() {
+            scene.sphere_geom = scene.attach_spheres(soup.spheres)?;
+        }
         // SAFETY: as above; after this call the scene is never modified again.
         unsafe { sys::rtcCommitScene(scene.raw()) };
         scene.device.check("rtcCommitScene")?;
@@ -77,6 +92,58 @@ impl Scene {
     /// The device the scene lives on.
     pub(super) fn device(&self) -> &Device {
         &self.device
+    }
+
+    /// The geometry ID of the spheres (`RTC_INVALID_GEOMETRY_ID` if none).
+    pub(super) fn sphere_geometry(&self) -> u32 {
+        self.sphere_geom
+    }
+
+    /// Create the user geometry answering for `spheres` (one primitive per
+    /// sphere, callbacks in [`super::user`]), commit it and attach it; returns
+    /// its geometry ID. Only during [`Scene::build`], before the commit.
+    fn attach_spheres(&mut self, spheres: &[Sphere]) -> Result<u32> {
+        let count = u32::try_from(spheres.len()).map_err(|_| {
+            backend_error(format!(
+                "{} spheres exceed Embree's 32-bit IDs",
+                spheres.len()
+            ))
+        })?;
+        let data = Box::new(SphereData {
+            spheres: spheres.into(),
+        });
+        let device = &self.device;
+        // SAFETY: `device` is live; USER is a valid geometry type.
+        let raw = unsafe { sys::rtcNewGeometry(device.raw(), sys::RTCGeometryType::USER) };
+        let geometry = NonNull::new(raw).map(|handle| Geometry { handle, device });
+        device.check("rtcNewGeometry")?;
+        let geometry =
+            geometry.ok_or_else(|| backend_error("rtcNewGeometry returned NULL".into()))?;
+        // SAFETY: `geometry` is live and not yet committed or shared. The
+        // user pointer names the boxed `SphereData`, whose heap address stays
+        // put when the box moves into `self.spheres` below and which lives
+        // until after the scene (and with it the geometry) is released; the
+        // callbacks only read it, and only for primitive IDs below `count`,
+        // its length.
+        unsafe {
+            sys::rtcSetGeometryUserPrimitiveCount(geometry.raw(), count);
+            sys::rtcSetGeometryUserData(geometry.raw(), user::user_ptr(&data));
+            sys::rtcSetGeometryBoundsFunction(
+                geometry.raw(),
+                Some(user::bounds),
+                std::ptr::null_mut(),
+            );
+            sys::rtcSetGeometryIntersectFunction(geometry.raw(), Some(user::intersect));
+            sys::rtcSetGeometryOccludedFunction(geometry.raw(), Some(user::occluded));
+            sys::rtcCommitGeometry(geometry.raw());
+        }
+        device.check("rtcCommitGeometry (spheres)")?;
+        // SAFETY: both handles are live and belong to the same device; the
+        // scene retains the geometry after `geometry` drops.
+        let id = unsafe { sys::rtcAttachGeometry(self.raw(), geometry.raw()) };
+        device.check("rtcAttachGeometry (spheres)")?;
+        self.spheres = Some(data);
+        Ok(id)
     }
 
     /// The raw handle of this committed scene. Valid for as long as `self` is.
