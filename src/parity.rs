@@ -98,7 +98,10 @@ pub struct ParityReport {
     pub unexplained: usize,
 }
 
-fn barycentric_class(h: &Hit) -> Option<&'static str> {
+fn barycentric_class(scene: &Scene, h: &Hit) -> Option<&'static str> {
+    if scene.sphere(h.prim).is_some() {
+        return None;
+    }
     let b = [1.0 - h.u - h.v, h.u, h.v];
     let near = b.iter().filter(|&&x| x.abs() < EDGE_EPS).count();
     match near {
@@ -109,11 +112,18 @@ fn barycentric_class(h: &Hit) -> Option<&'static str> {
 }
 
 fn share_corner(scene: &Scene, a: u32, b: u32) -> bool {
+    if scene.sphere(a).is_some() || scene.sphere(b).is_some() {
+        return false;
+    }
     let pa = scene.triangle(a);
     scene.triangle(b).iter().any(|p| pa.contains(p))
 }
 
 fn tri_class(scene: &Scene, ray: &Ray, h: &Hit) -> Option<&'static str> {
+    if let Some(s) = scene.sphere(h.prim) {
+        let n = (ray.at(h.t) - s.center).normalize_or_zero();
+        return (n.dot(ray.d).abs() < GRAZING_COS).then_some("grazing");
+    }
     let [p0, p1, p2] = scene.triangle(h.prim);
     let area2 = (p1 - p0).cross(p2 - p0).length();
     let longest = (p1 - p0)
@@ -134,7 +144,7 @@ fn tri_class(scene: &Scene, ray: &Ray, h: &Hit) -> Option<&'static str> {
 fn classify(scene: &Scene, ray: &Ray, a: Option<Hit>, b: Option<Hit>) -> &'static str {
     let hits: Vec<Hit> = [a, b].into_iter().flatten().collect();
     for h in &hits {
-        if let Some(c) = barycentric_class(h) {
+        if let Some(c) = barycentric_class(scene, h) {
             return c;
         }
     }
@@ -155,7 +165,13 @@ fn classify(scene: &Scene, ray: &Ray, a: Option<Hit>, b: Option<Hit>) -> &'stati
 /// itself ([`distance_error_bound`]): a triangle large next to the hit
 /// distance, seen at an angle, cannot fix `t` more finely.
 fn within_precision(scene: &Scene, ray: &Ray, a: &Hit, other_t: f32) -> bool {
-    (a.t - other_t).abs() <= distance_error_bound(scene.triangle(a.prim), ray)
+    let bound = match scene.sphere(a.prim) {
+        // every backend runs the same sphere routine: only the final f32
+        // rounding of t may differ
+        Some(_) => 2.0 * f32::EPSILON * a.t.abs().max(other_t.abs()),
+        None => distance_error_bound(scene.triangle(a.prim), ray),
+    };
+    (a.t - other_t).abs() <= bound
 }
 
 fn far_enough(a: f32, b: f32) -> bool {

@@ -106,7 +106,7 @@ fn first_hits(
         }
         let ray = camera.generate_ray(s.next_2d() * Vec2::new(w as f32, h as f32));
         if let Some(hit) = accel.intersect(&ray) {
-            out.push((scene.surface_point(hit.prim, hit.u, hit.v), -ray.d));
+            out.push((scene.hit_point(&ray, &hit), -ray.d));
         }
     }
     out
@@ -159,8 +159,20 @@ pub fn generate(
                     let l = lights.area_lights()[(s.next_1d() * lights.area_lights().len() as f32)
                         as usize
                         % lights.area_lights().len()];
-                    let b = square_to_uniform_triangle(s.next_2d());
-                    scene.surface_point(l.prim, b.x, b.y)
+                    match scene.sphere(l.prim) {
+                        Some(sph) => {
+                            let n = square_to_uniform_sphere(s.next_2d());
+                            SurfacePoint::on_sphere(
+                                sph.center,
+                                sph.radius,
+                                sph.center + sph.radius * n,
+                            )
+                        }
+                        None => {
+                            let b = square_to_uniform_triangle(s.next_2d());
+                            scene.surface_point(l.prim, b.x, b.y)
+                        }
+                    }
                 } else {
                     random_triangle_point(scene, &mut s).1
                 };
