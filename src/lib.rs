@@ -16,6 +16,7 @@ pub use error::{Error, Result};
 pub mod bench;
 pub mod bsdf;
 pub mod camera;
+pub mod convert;
 pub mod diff;
 pub mod effects_bench;
 pub mod film;

@@ -51,6 +51,17 @@ enum Command {
     /// Print the effects a scene calls for, what calls for each, and the
     /// code that runs.
     Plan(PlanArgs),
+    /// Write any scene the renderer reads as a TOML scene, with its meshes
+    /// and images beside it.
+    Convert(ConvertArgs),
+}
+
+#[derive(Args)]
+struct ConvertArgs {
+    /// The scene to convert.
+    input: PathBuf,
+    /// The TOML scene to write (meshes and images go beside it).
+    output: PathBuf,
 }
 
 #[derive(Args)]
@@ -328,6 +339,7 @@ const SUBCOMMANDS: &[&str] = &[
     "diff",
     "study",
     "plan",
+    "convert",
     "help",
     "-h",
     "--help",
@@ -368,6 +380,11 @@ fn main() -> ExitCode {
         Command::Diff(args) => run_diff(args),
         Command::Study(args) => run_study(args),
         Command::Plan(args) => run_plan(args),
+        Command::Convert(args) => Scene::load(&args.input).and_then(|scene| {
+            let w = embertrace::convert::convert(&scene, &args.output)?;
+            eprintln!("wrote {} ({} files)", args.output.display(), w.files.len());
+            Ok(())
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,299 @@
+//! `embertrace convert IN OUT.toml`: any scene the renderer reads, written as
+//! the project's own TOML with its meshes and images beside it, so a user
+//! can read and edit it and render it to the same image.
+//!
+//! What is written, next to `OUT.toml` (named after its stem):
+//!
+//! - one OBJ per run of consecutive triangles sharing a material
+//!   (`STEM-mesh-K.obj`), in the scene's triangle order, so every triangle
+//!   keeps its primitive number; positions, texture coordinates and vertex
+//!   normals are printed in Rust's shortest form that reads back to the same
+//!   `f32`, and each mesh's material goes inline into its `[[mesh]]` table;
+//! - each texture and the environment map as a linear OpenEXR file
+//!   (`STEM-texture-K.exr`, `STEM-environment.exr`) holding the texels the
+//!   renderer uses, decoded already (an sRGB PNG becomes its linear values);
+//! - spheres, point, directional and environment lights, camera and lens,
+//!   film and render defaults as TOML keys.
+//!
+//! The converted scene renders to the same image bits as the original
+//! (tested on the bundled scenes); the one exception is smooth shading,
+//! whose vertex normals are normalised again on loading, which may move them
+//! by an ulp.
+
+use crate::bsdf::{Bsdf, Distribution};
+use crate::error::{Error, Result};
+use crate::film::{self, Film, OutputOptions};
+use crate::math::Vec3;
+use crate::scene::{Material, Scene};
+use crate::texture::ImageTexture;
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// A number as TOML reads it back to the same `f32`.
+fn num(x: f32) -> String {
+    let s = format!("{x:?}");
+    if s.contains(['.', 'e', 'E']) || s.contains("inf") || s.contains("NaN") {
+        s
+    } else {
+        format!("{s}.0")
+    }
+}
+
+fn rgb(v: Vec3) -> String {
+    format!("[{}, {}, {}]", num(v.x), num(v.y), num(v.z))
+}
+
+/// Write `tex` as a linear EXR at `path`.
+fn write_texture(path: &Path, tex: &ImageTexture) -> Result<()> {
+    let mut f = Film::new(tex.width(), tex.height());
+    for y in 0..tex.height() {
+        for x in 0..tex.width() {
+            f.add_sample(x, y, tex.texel(x, y));
+        }
+    }
+    film::write_image(path, &f, &OutputOptions::default())
+}
+
+/// The files a conversion writes, in the order written (the TOML last).
+#[derive(Debug, Default)]
+pub struct Written {
+    /// Every file, the TOML last.
+    pub files: Vec<PathBuf>,
+}
+
+struct Writer<'a> {
+    dir: &'a Path,
+    stem: String,
+    written: Written,
+    /// Textures written so far (by identity), with their file names.
+    textures: Vec<(Arc<ImageTexture>, String)>,
+}
+
+impl Writer<'_> {
+    fn file(&mut self, name: &str) -> PathBuf {
+        let p = self.dir.join(name);
+        self.written.files.push(p.clone());
+        p
+    }
+
+    fn texture(&mut self, tex: &Arc<ImageTexture>) -> Result<String> {
+        if let Some((_, name)) = self.textures.iter().find(|(t, _)| Arc::ptr_eq(t, tex)) {
+            return Ok(name.clone());
+        }
+        let name = format!("{}-texture-{}.exr", self.stem, self.textures.len());
+        let path = self.file(&name);
+        write_texture(&path, tex)?;
+        self.textures.push((tex.clone(), name.clone()));
+        Ok(name)
+    }
+
+    /// The inline `material = {...}` of `m`.
+    fn material(&mut self, m: &Material) -> Result<String> {
+        let mut keys = Vec::new();
+        match &m.bsdf {
+            Bsdf::Diffuse(d) => {
+                keys.push("type = \"diffuse\"".to_string());
+                keys.push(format!("diffuse = {}", rgb(d.albedo)));
+            }
+            Bsdf::Mirror(r) => {
+                keys.push("type = \"mirror\"".to_string());
+                keys.push(format!("reflectance = {}", rgb(r.reflectance)));
+            }
+            Bsdf::Glass(g) => {
+                keys.push("type = \"glass\"".to_string());
+                keys.push(format!("ior = {}", num(g.ior)));
+                keys.push(format!("reflectance = {}", rgb(g.reflectance)));
+                keys.push(format!("transmittance = {}", rgb(g.transmittance)));
+            }
+            Bsdf::Conductor(c) => {
+                keys.push("type = \"conductor\"".to_string());
+                keys.push(format!("alpha = {}", num(c.microfacet.alpha)));
+                keys.push(format!("eta = {}", rgb(c.eta)));
+                keys.push(format!("k = {}", rgb(c.k)));
+                let d = match c.microfacet.distribution {
+                    Distribution::Ggx => "ggx",
+                    Distribution::Beckmann => "beckmann",
+                };
+                keys.push(format!("distribution = \"{d}\""));
+            }
+            Bsdf::Plastic(p) => {
+                keys.push("type = \"plastic\"".to_string());
+                keys.push(format!("diffuse = {}", rgb(p.diffuse())));
+                keys.push(format!("ior = {}", num(p.ior())));
+                keys.push(format!("alpha = {}", num(p.microfacet().alpha)));
+            }
+        }
+        if let Some(t) = &m.texture {
+            let name = self.texture(t)?;
+            keys.push(format!("texture = \"{name}\""));
+        }
+        if m.emission != Vec3::ZERO {
+            keys.push(format!("emission = {}", rgb(m.emission)));
+        }
+        if m.two_sided {
+            keys.push("two_sided = true".to_string());
+        }
+        Ok(format!("{{ {} }}", keys.join(", ")))
+    }
+
+    /// Triangles `range` as an OBJ file; returns its name.
+    fn mesh(&mut self, scene: &Scene, range: std::ops::Range<usize>, k: usize) -> Result<String> {
+        let name = format!("{}-mesh-{k}.obj", self.stem);
+        let mut text = format!(
+            "# {} triangles of {}, written by embertrace convert\n",
+            range.len(),
+            scene.source.display()
+        );
+        let uv = !scene.tri_uv.is_empty();
+        let vn = !scene.tri_shading_normals.is_empty();
+        for t in range.clone() {
+            for p in scene.triangle(t as u32) {
+                let _ = writeln!(text, "v {} {} {}", num(p.x), num(p.y), num(p.z));
+            }
+            if uv {
+                for c in scene.tri_uv[t] {
+                    let _ = writeln!(text, "vt {} {}", num(c.x), num(c.y));
+                }
+            }
+            if vn {
+                for c in scene.tri_shading_normals[t] {
+                    let _ = writeln!(text, "vn {} {} {}", num(c.x), num(c.y), num(c.z));
+                }
+            }
+        }
+        for (j, t) in range.enumerate() {
+            let smooth = vn
+                && scene.tri_shading_normals[t]
+                    .iter()
+                    .all(|n| *n != Vec3::ZERO);
+            let corner = |c: usize| {
+                let i = 3 * j + c + 1;
+                match (uv, smooth) {
+                    (true, true) => format!("{i}/{i}/{i}"),
+                    (true, false) => format!("{i}/{i}"),
+                    (false, true) => format!("{i}//{i}"),
+                    (false, false) => i.to_string(),
+                }
+            };
+            let _ = writeln!(text, "f {} {} {}", corner(0), corner(1), corner(2));
+        }
+        let path = self.file(&name);
+        film::write_file_atomically(&path, text.as_bytes())?;
+        Ok(name)
+    }
+}
+
+/// Convert `scene` to a TOML scene at `out` (which must end in `.toml`),
+/// writing its meshes and images beside it.
+pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
+    if out.extension().and_then(|e| e.to_str()) != Some("toml") {
+        return Err(Error::Settings(format!(
+            "{}: the converted scene must be a .toml file",
+            out.display()
+        )));
+    }
+    let dir = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(Error::Settings(format!(
+            "{}: the folder {} does not exist",
+            out.display(),
+            dir.display()
+        )));
+    }
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scene".to_string());
+    let mut w = Writer {
+        dir,
+        stem,
+        written: Written::default(),
+        textures: Vec::new(),
+    };
+    let mut t = format!(
+        "# Converted from {} by embertrace convert.\n\n",
+        scene.source.display()
+    );
+    let c = &scene.camera;
+    let _ = writeln!(t, "[camera]");
+    let _ = writeln!(t, "origin = {}", rgb(c.origin));
+    let _ = writeln!(t, "target = {}", rgb(c.target));
+    let _ = writeln!(t, "up = {}", rgb(c.up));
+    let _ = writeln!(t, "fov_y = {}", num(c.fov_y));
+    if !scene.lens.is_pinhole() {
+        let _ = writeln!(t, "aperture_radius = {}", num(scene.lens.aperture_radius));
+        let _ = writeln!(t, "focus_distance = {}", num(scene.lens.focus_distance));
+    }
+    let [rw, rh] = scene.resolution;
+    let r = &scene.render;
+    let _ = write!(
+        t,
+        "\n[film]\nresolution = [{rw}, {rh}]\n\n[render]\nspp = {}\nmax_depth = {}\nlight_samples = {}\nseed = {}\n",
+        r.spp, r.max_depth, r.light_samples, r.seed
+    );
+    // meshes: runs of consecutive triangles with one material
+    let n = scene.triangle_count();
+    let mut start = 0;
+    let mut k = 0;
+    while start < n {
+        let mat = scene.tri_material[start];
+        let mut end = start + 1;
+        while end < n && scene.tri_material[end] == mat {
+            end += 1;
+        }
+        let file = w.mesh(scene, start..end, k)?;
+        let material = w.material(&scene.materials[mat as usize])?;
+        let _ = write!(t, "\n[[mesh]]\nfile = \"{file}\"\nmaterial = {material}\n");
+        start = end;
+        k += 1;
+    }
+    for (s, &m) in scene.spheres.iter().zip(&scene.sphere_material) {
+        let material = w.material(&scene.materials[m as usize])?;
+        let _ = write!(
+            t,
+            "\n[[sphere]]\ncenter = {}\nradius = {}\nmaterial = {material}\n",
+            rgb(s.center),
+            num(s.radius)
+        );
+    }
+    for p in &scene.point_lights {
+        let _ = write!(
+            t,
+            "\n[[light]]\ntype = \"point\"\nposition = {}\nintensity = {}\n",
+            rgb(p.position),
+            rgb(p.intensity)
+        );
+    }
+    for d in &scene.directional_lights {
+        let _ = write!(
+            t,
+            "\n[[light]]\ntype = \"directional\"\ndirection = {}\nirradiance = {}\n",
+            rgb(d.direction()),
+            rgb(d.irradiance())
+        );
+    }
+    if let Some(e) = scene.environment {
+        let _ = write!(
+            t,
+            "\n[[light]]\ntype = \"environment\"\nradiance = {}\n",
+            rgb(e)
+        );
+    }
+    if let Some(map) = &scene.environment_map {
+        let name = format!("{}-environment.exr", w.stem);
+        let path = w.file(&name);
+        write_texture(&path, map.map())?;
+        let _ = write!(
+            t,
+            "\n[[light]]\ntype = \"environment\"\nfile = \"{name}\"\nradiance = {}\n",
+            rgb(map.radiance())
+        );
+    }
+    w.written.files.push(out.to_path_buf());
+    film::write_file_atomically(out, t.as_bytes())?;
+    Ok(w.written)
+}

@@ -1,0 +1,134 @@
+//! `embertrace convert`: a converted scene renders to the same image bits as
+//! the original (bundled scenes, and one with point, directional and
+//! environment lights, a lens, textures and an emissive sphere); and bad
+//! output paths are refused before anything is written.
+
+use embertrace::accel::{self, AccelOptions, Backend};
+use embertrace::convert::convert;
+use embertrace::integrator::{IntegratorSettings, PathTracer};
+use embertrace::render::{RenderSettings, render};
+use embertrace::sampler::SamplerKind;
+use embertrace::scene::Scene;
+use std::path::Path;
+
+fn image(scene: &Scene) -> Vec<f32> {
+    let acc = accel::build(Backend::Bvh, scene.soup(), AccelOptions::default()).unwrap();
+    let settings = IntegratorSettings {
+        max_depth: 8,
+        ..IntegratorSettings::default()
+    };
+    let tracer = PathTracer::new(scene, acc.as_ref(), settings);
+    let rs = RenderSettings {
+        resolution: [24, 24],
+        spp: 2,
+        first_sample: 0,
+        seed: 11,
+        threads: 0,
+        tile_size: 8,
+        sampler: SamplerKind::Independent,
+        clamp: None,
+    };
+    render(&tracer, &scene.make_camera(24, 24), &rs, &|| {})
+        .unwrap()
+        .film
+        .to_rgb_f32()
+}
+
+fn round_trip(path: &Path) {
+    let scene = Scene::load(path).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("converted.toml");
+    let written = convert(&scene, &out).unwrap();
+    assert_eq!(written.files.last(), Some(&out));
+    let again = Scene::load(&out).unwrap();
+    assert_eq!(again.triangle_count(), scene.triangle_count());
+    assert_eq!(again.spheres, scene.spheres);
+    assert_eq!(again.camera, scene.camera);
+    assert_eq!(again.lens, scene.lens);
+    assert_eq!(again.render, scene.render);
+    let (a, b) = (image(&scene), image(&again));
+    let differ = a
+        .iter()
+        .zip(&b)
+        .filter(|(x, y)| x.to_bits() != y.to_bits())
+        .count();
+    assert_eq!(differ, 0, "{}: {differ} values differ", path.display());
+    assert!(a.iter().any(|&v| v > 0.0));
+}
+
+#[test]
+fn bundled_scenes_round_trip_to_the_same_bits() {
+    for name in ["cornell-box.toml", "cornell-spheres.toml", "materials.toml"] {
+        round_trip(
+            &Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("scenes")
+                .join(name),
+        );
+    }
+}
+
+#[test]
+fn lights_lens_textures_and_uvs_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = image::RgbImage::from_fn(8, 4, |x, y| {
+        image::Rgb([(x * 30) as u8, (y * 60) as u8, 90])
+    });
+    img.save(dir.path().join("t.png")).unwrap();
+    std::fs::write(
+        dir.path().join("q.obj"),
+        "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+         f 1/1 3/3 2/2\nf 1/1 4/4 3/3\n",
+    )
+    .unwrap();
+    let path = dir.path().join("s.toml");
+    std::fs::write(
+        &path,
+        r#"
+[camera]
+origin = [0.0, 2.0, 3.0]
+target = [0.0, 0.0, 0.0]
+aperture_radius = 0.05
+focus_distance = 3.2
+[[mesh]]
+file = "q.obj"
+material = { type = "plastic", diffuse = 0.5, alpha = 0.1, texture = "t.png" }
+[[sphere]]
+center = [0.3, 0.4, 0.0]
+radius = 0.3
+material = { type = "conductor", alpha = 0.3, distribution = "beckmann", emission = 0.5, two_sided = true }
+[[light]]
+type = "point"
+position = [0.0, 1.5, 0.5]
+intensity = [3.0, 2.0, 1.0]
+[[light]]
+type = "directional"
+direction = [0.0, -1.0, 0.0]
+irradiance = 0.7
+[[light]]
+type = "environment"
+radiance = 0.1
+[[light]]
+type = "environment"
+file = "t.png"
+radiance = 0.5
+"#,
+    )
+    .unwrap();
+    round_trip(&path);
+}
+
+#[test]
+fn the_output_must_be_toml_in_an_existing_folder() {
+    let scene = Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml"))
+        .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let e = convert(&scene, &dir.path().join("out.obj"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains(".toml"), "{e}");
+    let e = convert(&scene, &dir.path().join("no/such/out.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("does not exist"), "{e}");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
