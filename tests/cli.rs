@@ -413,6 +413,26 @@ fn cases() -> Vec<Case> {
             expect: vec!["s.toml:1", "aperture_radius"],
         },
         Case {
+            name: "aperture that takes the lens out of range",
+            files: vec![(
+                "s.toml",
+                "[camera]\norigin = [0, 0, 3]\ntarget = [0, 0, 0]\naperture_radius = 1e30\n"
+                    .into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:1", "aperture_radius", "1.8e18"],
+        },
+        Case {
+            name: "directional light along a denormal direction is fine, along NaN is not",
+            files: vec![(
+                "s.toml",
+                "[[light]]\ntype = \"directional\"\ndirection = [1e-38, 0, nan]\nirradiance = 1\n"
+                    .into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:1", "`direction`"],
+        },
+        Case {
             name: "map_Kd that does not exist",
             files: vec![
                 ("m.obj", format!("mtllib m.mtl\nusemtl a\nvt 0 0\n{GOOD_OBJ}")),

@@ -58,6 +58,30 @@ material = { diffuse = [0.5, 0.4, 0.3], emission = 2.0, two_sided = true }
 [[light]]
 type = "environment"
 radiance = [0.2, 0.3, 0.4]
+
+[[mesh]]
+file = "mesh.obj"
+material = { type = "plastic", diffuse = 0.5, ior = 1.5, alpha = 0.1 }
+
+[[sphere]]
+center = [0.3, 0.4, -0.2]
+radius = 0.3
+material = { type = "glass", ior = 1.5, reflectance = 1.0, transmittance = [1.0, 0.9, 0.8] }
+
+[[sphere]]
+center = [-0.4, 0.3, 0.1]
+radius = 0.25
+material = { type = "conductor", alpha = 0.2, eta = [0.2, 0.4, 1.4], k = 3.0, distribution = "beckmann", emission = 0.5 }
+
+[[light]]
+type = "point"
+position = [0.0, 1.8, 0.0]
+intensity = [2.0, 2.0, 2.0]
+
+[[light]]
+type = "directional"
+direction = [0.3, -1.0, 0.2]
+irradiance = 1.5
 "#;
 
 const PROCEDURAL: &str = r#"[camera]
@@ -93,14 +117,17 @@ newmtl light\nKd 0.78 0.78 0.78\nKe 17 12 4\n";
 /// (`embertrace::scene::limits`), the inline-array spelling of tables,
 /// out-of-range placements, and comments and quoting in odd places, so that
 /// one or two mutations reach the edges.
-const TOML_EDGES: &str = r#"mesh = [{ file = "mesh.obj", transform = { scale = [1e18, -1e18, 1e18], translate = [9e17, 0, -9e17] } }, { 'file' = 'mesh.obj', material = { two_sided = false, emission = [0, 0, 1e30] } }]
-light = [{ type = "environment", radiance = 0 }]
+const TOML_EDGES: &str = r#"mesh = [{ file = "mesh.obj", transform = { scale = [1e18, -1e18, 1e18], translate = [9e17, 0, -9e17] } }, { 'file' = 'mesh.obj', material = { two_sided = false, emission = [0, 0, 1e30] } }, { file = "mesh.obj", material = { type = "mirror", reflectance = 1 } }]
+light = [{ type = "environment", radiance = 0 }, { type = "point", position = [1.8e18, 0, 0], intensity = 3e38 }, { type = "directional", direction = [1e-38, 0, 0], irradiance = 1e30 }]
+sphere = [{ center = [1.7e18, 0, 0], radius = 1e17 }, { center = [0, 0, 0], radius = 1e-38, material = { type = "glass", ior = 1e-30 } }]
 procedural = [{ type = "terrain", triangles = 8, displacement = -0.9, seed = 18446744073709551615, transform = { rotate = [1e-19, 0, 0, 1e30] } }]
 [camera] # comment
 "origin" = [1.8e18, -1.8e18, 1.8e18]
 target = [-0.0, 0.0, 0.0]
 up = [1e-38, 1, 0]
 fov_y = 179.99
+aperture_radius = 1e30
+focus_distance = 1e-38
 [film]
 resolution = [32768, 8192]
 [render]

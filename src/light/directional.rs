@@ -26,12 +26,15 @@ impl DirectionalLight {
     /// normalised) with `irradiance`. `None` for a zero or non-finite
     /// direction.
     pub fn new(direction: Vec3, irradiance: Vec3) -> Option<Self> {
-        let len = direction.length();
-        if !(len > 0.0) || !len.is_finite() {
+        // scaled by its largest component first, so that neither a tiny
+        // (1e-38) nor a huge (1e38) vector under- or overflows its length
+        let m = direction.abs().max_element();
+        if !(m > 0.0) || !m.is_finite() {
             return None;
         }
+        let d = direction / m;
         Some(DirectionalLight {
-            direction: direction / len,
+            direction: d / d.length(),
             irradiance,
         })
     }

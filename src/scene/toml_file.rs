@@ -798,6 +798,17 @@ pub fn load(path: &Path) -> Result<Scene> {
             };
             // the plane in focus defaults to the target's
             let focus = c.focus_distance.unwrap_or(view.length());
+            // lens points must stay within Embree's coordinate range
+            if origin.abs().max_element() + c.aperture_radius.abs() > MAX_COORDINATE {
+                return Err(Error::input(
+                    path,
+                    line,
+                    format!(
+                        "camera.aperture_radius {:e} takes the lens beyond +-{MAX_COORDINATE:e}",
+                        c.aperture_radius
+                    ),
+                ));
+            }
             scene.lens = ThinLens::new(c.aperture_radius, focus).map_err(|e| match e {
                 Error::Settings(m) => Error::input(path, line, format!("camera.{m}")),
                 other => other,
