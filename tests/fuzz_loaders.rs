@@ -280,7 +280,9 @@ fn load_bounded(path: &Path) -> Outcome {
     // a panic drops the sender; a hang leaves the thread behind, and the
     // test fails at once
     std::thread::spawn(move || {
-        let r = Scene::load(&path).map(|_| ()).map_err(|e| e.to_string());
+        let r = Scene::load(&path)
+            .map(render_tiny)
+            .map_err(|e| e.to_string());
         let _ = tx.send(r);
     });
     match rx.recv_timeout(HANG) {
@@ -289,6 +291,42 @@ fn load_bounded(path: &Path) -> Outcome {
         Err(mpsc::RecvTimeoutError::Disconnected) => Outcome::Panicked,
         Err(mpsc::RecvTimeoutError::Timeout) => Outcome::Hung,
     }
+}
+
+/// Render a scene that loaded at 2 x 2 pixels, 1 sample, 4 bounces, with
+/// the default backend, so that values a loader accepts (a huge aperture, a
+/// light at the edge of the range) are shown not to crash the renderer or
+/// Embree (which aborts the process on a ray it deems invalid). Scenes of
+/// more than 100 000 primitives are only loaded.
+fn render_tiny(scene: Scene) {
+    use embertrace::accel::{self, AccelOptions, Backend};
+    use embertrace::integrator::{IntegratorSettings, PathTracer};
+    use embertrace::render::{RenderSettings, render};
+    if scene.primitive_count() > 100_000 {
+        return;
+    }
+    let acc = accel::build(
+        Backend::default_backend(),
+        scene.soup(),
+        AccelOptions::default(),
+    )
+    .expect("a loaded scene builds");
+    let settings = IntegratorSettings {
+        max_depth: 4,
+        ..IntegratorSettings::default()
+    };
+    let tracer = PathTracer::new(&scene, acc.as_ref(), settings);
+    let rs = RenderSettings {
+        resolution: [2, 2],
+        spp: 1,
+        first_sample: 0,
+        seed: 0,
+        threads: 1,
+        tile_size: 2,
+        sampler: embertrace::sampler::SamplerKind::Independent,
+        clamp: None,
+    };
+    render(&tracer, &scene.make_camera(2, 2), &rs, &|| {}).expect("a loaded scene renders");
 }
 
 /// A stream number per fuzz run, so that no two runs mutate alike.
