@@ -29,7 +29,7 @@ impl DirectionalLight {
         // scaled by its largest component first, so that neither a tiny
         // (1e-38) nor a huge (1e38) vector under- or overflows its length
         let m = direction.abs().max_element();
-        if !(m > 0.0) || !m.is_finite() {
+        if !direction.is_finite() || !(m > 0.0) {
             return None;
         }
         let d = direction / m;
@@ -96,6 +96,12 @@ mod tests {
     fn bad_directions_and_power() {
         assert!(DirectionalLight::new(Vec3::ZERO, Vec3::ONE).is_none());
         assert!(DirectionalLight::new(Vec3::new(f32::NAN, 0.0, 1.0), Vec3::ONE).is_none());
+        assert!(DirectionalLight::new(Vec3::new(1.0, f32::INFINITY, 0.0), Vec3::ONE).is_none());
+        // tiny and huge vectors normalise without under- or overflow
+        let tiny = DirectionalLight::new(Vec3::new(1e-38, 0.0, 0.0), Vec3::ONE).unwrap();
+        assert_eq!(tiny.direction(), Vec3::X);
+        let huge = DirectionalLight::new(Vec3::new(0.0, -3e38, 0.0), Vec3::ONE).unwrap();
+        assert_eq!(huge.direction(), -Vec3::Y);
         let light = DirectionalLight::new(Vec3::X, Vec3::ONE).unwrap();
         // luminance 1, r = 2: pi * 4
         assert!((light.power(2.0) - 4.0 * PI).abs() < 1e-5);
