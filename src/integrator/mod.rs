@@ -434,7 +434,12 @@ impl<'a> PathTracer<'a> {
         sampler: &mut Sampler,
         rays: &mut RayCounts,
     ) -> Vec3 {
-        let m = self.scene.material_index(its.prim) as usize;
+        // without spheres every primitive is a triangle: no dispatch
+        let m = if S {
+            self.scene.material_index(its.prim)
+        } else {
+            self.scene.tri_material[its.prim as usize]
+        } as usize;
         if !M {
             let bsdf = Diffuse {
                 albedo: self.albedo[m],
