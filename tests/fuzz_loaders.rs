@@ -1,6 +1,7 @@
 //! A bounded, deterministic mutation fuzzer for every scene loader (issue 4
 //! item 5, hard case 28): the TOML scene, the OBJ mesh (through tobj), its
-//! MTL library and the `[[procedural]]` source. Each input is a bundled or
+//! MTL library, the `[[procedural]]` source and PLY meshes (ASCII and both
+//! binary byte orders). Each input is a bundled or
 //! hand-written seed file with one to four random mutations (byte changes,
 //! hostile tokens such as `nan`, `1e30`, `4294967296`, huge indices or
 //! counts, deleted or repeated ranges, truncation; invalid UTF-8 included).
@@ -338,7 +339,7 @@ fn stream(name: &str) -> u64 {
 
 /// Fuzz file `target` of a scene made of `files`, loading `entry`: input `i`
 /// mutates seed `i % seeds.len()`.
-fn fuzz(name: &str, files: &[(&str, &str)], target: &str, seeds: &[&str], entry: &str) {
+fn fuzz(name: &str, files: &[(&str, &str)], target: &str, seeds: &[&[u8]], entry: &str) {
     let dir = tempfile::tempdir().unwrap();
     let names: Vec<&str> = files.iter().map(|f| f.0).collect();
     let n = iterations();
@@ -346,7 +347,7 @@ fn fuzz(name: &str, files: &[(&str, &str)], target: &str, seeds: &[&str], entry:
     let start = Instant::now();
     for i in 0..n {
         let mut s = Sampler::new(0xf022, stream(name), i);
-        let seed_text = seeds[i as usize % seeds.len()].as_bytes();
+        let seed_text = seeds[i as usize % seeds.len()];
         let input = mutate(seed_text, &mut s);
         for (f, text) in files {
             let bytes = if *f == target {
@@ -395,7 +396,7 @@ const FILES: [(&str, &str); 3] = [("scene.toml", TOML), ("mesh.obj", OBJ), ("mes
 
 #[test]
 fn fuzz_toml_scene() {
-    let seeds = [TOML, TOML_EDGES];
+    let seeds = [TOML.as_bytes(), TOML_EDGES.as_bytes()];
     fuzz("toml", &FILES, "scene.toml", &seeds, "scene.toml");
 }
 
@@ -406,21 +407,27 @@ fn fuzz_procedural_scene() {
         "procedural",
         &files,
         "scene.toml",
-        &[PROCEDURAL],
+        &[PROCEDURAL.as_bytes()],
         "scene.toml",
     );
 }
 
 #[test]
 fn fuzz_obj_mesh() {
-    let seeds = [OBJ, OBJ_EDGES];
+    let seeds = [OBJ.as_bytes(), OBJ_EDGES.as_bytes()];
     fuzz("obj-in-toml", &FILES, "mesh.obj", &seeds, "scene.toml");
     fuzz("obj", &FILES, "mesh.obj", &seeds, "mesh.obj");
 }
 
 #[test]
 fn fuzz_mtl_library() {
-    fuzz("mtl", &FILES, "mesh.mtl", &[MTL, MTL_EDGES], "mesh.obj");
+    fuzz(
+        "mtl",
+        &FILES,
+        "mesh.mtl",
+        &[MTL.as_bytes(), MTL_EDGES.as_bytes()],
+        "mesh.obj",
+    );
 }
 
 /// The hostile seeds themselves, unmutated: each loads or fails cleanly
@@ -470,4 +477,78 @@ fn many_tables_load_in_linear_time() {
     // 10 s: room for a loaded CI machine, and a small fraction of the
     // quadratic time
     assert!(took < Duration::from_secs(10), "{took:?}");
+}
+
+/// A PLY header for 4 vertices with normals and UVs and 2 faces (a quad and
+/// a triangle), in `format`.
+fn ply_header(format: &str) -> String {
+    format!(
+        "ply\nformat {format} 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+         property float z\nproperty float nx\nproperty float ny\nproperty float nz\n\
+         property float u\nproperty float v\nproperty uchar red\nelement face 2\n\
+         property list uchar int vertex_indices\nend_header\n"
+    )
+}
+
+const PLY_VERTS: [[f32; 8]; 4] = [
+    [-0.5, 0.0, -0.5, 0.0, 1.0, 0.0, 0.0, 0.0],
+    [0.5, 0.0, -0.5, 0.0, 1.0, 0.0, 1.0, 0.0],
+    [0.5, 0.0, 0.5, 0.0, 1.0, 0.0, 1.0, 1.0],
+    [-0.5, 1.0, 0.5, 0.0, 0.0, 1.0, 0.0, 1.0],
+];
+const PLY_FACES: [&[i32]; 2] = [&[0, 1, 2, 3], &[0, 2, 3]];
+
+fn ply_seeds() -> Vec<Vec<u8>> {
+    let mut ascii = ply_header("ascii");
+    for v in PLY_VERTS {
+        let words: Vec<String> = v.iter().map(|x| x.to_string()).collect();
+        ascii += &format!("{} 200\n", words.join(" "));
+    }
+    for f in PLY_FACES {
+        let words: Vec<String> = f.iter().map(|x| x.to_string()).collect();
+        ascii += &format!("{} {}\n", f.len(), words.join(" "));
+    }
+    let mut seeds = vec![ascii.into_bytes()];
+    for big in [false, true] {
+        let order = if big {
+            "binary_big_endian"
+        } else {
+            "binary_little_endian"
+        };
+        let mut b = ply_header(order).into_bytes();
+        for v in PLY_VERTS {
+            for x in v {
+                b.extend(if big {
+                    x.to_be_bytes()
+                } else {
+                    x.to_le_bytes()
+                });
+            }
+            b.push(200);
+        }
+        for f in PLY_FACES {
+            b.push(f.len() as u8);
+            for &i in f {
+                b.extend(if big {
+                    i.to_be_bytes()
+                } else {
+                    i.to_le_bytes()
+                });
+            }
+        }
+        seeds.push(b);
+    }
+    seeds
+}
+
+#[test]
+fn fuzz_ply_mesh() {
+    let scene = "[camera]\norigin = [0, 0.5, 3]\ntarget = [0, 0.3, 0]\nfov_y = 40\n\n\
+                 [[mesh]]\nfile = \"mesh.ply\"\n\n[[mesh]]\nfile = \"mesh.ply\"\n\
+                 material = { emission = 1 }\n";
+    let files = [("scene.toml", scene), ("mesh.ply", "")];
+    let seeds = ply_seeds();
+    let seeds: Vec<&[u8]> = seeds.iter().map(|s| &s[..]).collect();
+    fuzz("ply-in-toml", &files, "mesh.ply", &seeds, "scene.toml");
+    fuzz("ply", &files, "mesh.ply", &seeds, "mesh.ply");
 }

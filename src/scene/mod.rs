@@ -7,6 +7,7 @@
 
 pub mod limits;
 mod obj;
+mod ply;
 pub mod procedural;
 mod toml_file;
 
@@ -22,6 +23,7 @@ use std::sync::Arc;
 
 pub use limits::{MAX_COORDINATE, MAX_PIXELS, MAX_RESOLUTION, MAX_TRIANGLES, MAX_VERTICES};
 pub use obj::load_obj_mesh;
+pub use ply::{MAX_POLYGON, load_ply_mesh};
 
 /// A surface material: a BSDF, an optional albedo texture, and emission.
 #[derive(Debug, Clone, PartialEq)]
@@ -188,8 +190,9 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Load a scene by extension: `.toml` (scene file) or `.obj` (a bare mesh,
-    /// framed automatically; lit by a white environment if it has no emitters).
+    /// Load a scene by extension: `.toml` (scene file), or `.obj` or `.ply`
+    /// (a bare mesh, framed automatically; lit by a white environment if it
+    /// has no emitters).
     pub fn load(path: &Path) -> Result<Scene> {
         let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
         if meta.is_dir() {
@@ -207,10 +210,11 @@ impl Scene {
         match ext.as_str() {
             "toml" => toml_file::load(path),
             "obj" => obj::load_bare(path),
+            "ply" => bare_scene(path, load_ply_mesh(path)?),
             _ => Err(Error::input(
                 path,
                 None,
-                format!("unknown scene format `.{ext}` (expected .toml or .obj)"),
+                format!("unknown scene format `.{ext}` (expected .toml, .obj or .ply)"),
             )),
         }
     }
@@ -352,6 +356,25 @@ impl Scene {
             fov_y,
         }
     }
+}
+
+/// A bare mesh file as a scene: the mesh placed as it is, the camera framed
+/// from its bounds, and a uniform white environment when nothing emits.
+fn bare_scene(path: &Path, mesh: MeshData) -> Result<Scene> {
+    let mut b = SceneBuilder::new(path);
+    b.add_mesh_from(mesh, &Transform::default(), None)?;
+    let mut scene = b.build();
+    scene.camera = Scene::framing_camera(&scene.bounds());
+    scene
+        .notes
+        .push("camera framed automatically from the mesh bounds".to_string());
+    if !scene.has_emitters() {
+        scene.environment = Some(Vec3::ONE);
+        scene.notes.push(
+            "no emitters in the mesh: lighting it with a uniform white environment".to_string(),
+        );
+    }
+    Ok(scene)
 }
 
 /// An axis-aligned box.

@@ -19,7 +19,7 @@
 //! are the same.
 
 use super::limits::{MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
-use super::{Material, MeshData, Scene, SceneBuilder, Transform};
+use super::{Material, MeshData, Scene};
 use crate::bsdf::{Bsdf, Diffuse, Glass, Mirror, Plastic};
 use crate::error::{Error, Result};
 use crate::math::{Vec2, Vec3};
@@ -543,24 +543,9 @@ fn prepare_mtl(lib: &Path, text: &str) -> Result<String> {
     Ok(out)
 }
 
-/// A bare `.obj` as a scene: framed from its bounds, lit by a uniform white
-/// environment when it has no emitters.
+/// A bare `.obj` as a scene (see [`super::bare_scene`]).
 pub fn load_bare(path: &Path) -> Result<Scene> {
-    let mesh = load_obj_mesh(path)?;
-    let mut b = SceneBuilder::new(path);
-    b.add_mesh_from(mesh, &Transform::default(), None)?;
-    let mut scene = b.build();
-    scene.camera = Scene::framing_camera(&scene.bounds());
-    scene
-        .notes
-        .push("camera framed automatically from the mesh bounds".to_string());
-    if !scene.has_emitters() {
-        scene.environment = Some(Vec3::ONE);
-        scene.notes.push(
-            "no emitters in the mesh: lighting it with a uniform white environment".to_string(),
-        );
-    }
-    Ok(scene)
+    super::bare_scene(path, load_obj_mesh(path)?)
 }
 
 #[cfg(test)]

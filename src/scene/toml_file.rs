@@ -32,6 +32,7 @@ use super::limits::{self, MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
 use super::procedural::{self, Shape};
 use super::{
     CameraDesc, Material, MeshData, RenderDefaults, Scene, SceneBuilder, Transform, load_obj_mesh,
+    load_ply_mesh,
 };
 use crate::accel::Sphere;
 use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Mirror, Plastic};
@@ -522,19 +523,26 @@ pub fn load(path: &Path) -> Result<Scene> {
             .extension()
             .and_then(|e| e.to_str())
             .map(|e| e.to_ascii_lowercase());
-        if ext.as_deref() != Some("obj") {
-            return Err(Error::input(
-                path,
-                line,
-                format!("mesh file `{}`: unknown format (expected .obj)", m.file),
-            ));
-        }
+        let read: fn(&Path) -> Result<MeshData> = match ext.as_deref() {
+            Some("obj") => load_obj_mesh,
+            Some("ply") => load_ply_mesh,
+            _ => {
+                return Err(Error::input(
+                    path,
+                    line,
+                    format!(
+                        "mesh file `{}`: unknown format (expected .obj or .ply)",
+                        m.file
+                    ),
+                ));
+            }
+        };
         if mesh_path.is_dir() {
             return Err(Error::input(
                 path,
                 line,
                 format!(
-                    "mesh file `{}` is a directory (expected an .obj file)",
+                    "mesh file `{}` is a directory (expected an .obj or .ply file)",
                     m.file
                 ),
             ));
@@ -552,7 +560,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         let mut mesh = match loaded.get(&mesh_path) {
             Some(mesh) => mesh.clone(),
             None => {
-                let mesh = load_obj_mesh(&mesh_path)?;
+                let mesh = read(&mesh_path)?;
                 loaded.insert(mesh_path.clone(), mesh.clone());
                 mesh
             }
