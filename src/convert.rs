@@ -267,6 +267,9 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
             rgb(p.position),
             rgb(p.intensity)
         );
+        if p.attenuation != crate::light::point::PHYSICAL {
+            let _ = writeln!(t, "attenuation = {}", rgb(Vec3::from(p.attenuation)));
+        }
     }
     for d in &scene.directional_lights {
         let _ = write!(

@@ -129,7 +129,7 @@ fn cases() -> Vec<Case> {
             name: "unknown scene format",
             files: vec![("s.blend", String::new())],
             scene: "s.blend",
-            expect: vec!["s.blend", "expected .toml or .obj"],
+            expect: vec!["s.blend", "unknown scene format"],
         },
         Case {
             name: "unknown light type",
@@ -382,6 +382,16 @@ fn cases() -> Vec<Case> {
             )],
             scene: "s.toml",
             expect: vec!["s.toml:1", "`intensity`"],
+        },
+        Case {
+            name: "point light attenuated by nothing",
+            files: vec![(
+                "s.toml",
+                "\n[[light]]\ntype = \"point\"\nposition = [0, 1, 0]\nintensity = 1\nattenuation = [0, 0, 0]\n"
+                    .into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:2", "`attenuation`"],
         },
         Case {
             name: "directional light along a zero vector",

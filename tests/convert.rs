@@ -101,6 +101,11 @@ type = "point"
 position = [0.0, 1.5, 0.5]
 intensity = [3.0, 2.0, 1.0]
 [[light]]
+type = "point"
+position = [-0.4, 1.2, 0.2]
+intensity = 0.5
+attenuation = [1.0, 0.5, 0.0]
+[[light]]
 type = "directional"
 direction = [0.0, -1.0, 0.0]
 irradiance = 0.7

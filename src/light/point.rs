@@ -2,7 +2,9 @@
 //! every direction from `position` (pbrt-v4 section 12.1, `PointLight`).
 //!
 //! Seen from a point at distance r it contributes I / r^2 along the single
-//! direction towards it: a delta distribution in direction, so it is only
+//! direction towards it (or, with an `attenuation` of `[c, l, q]`, the
+//! CSE 167 / OpenGL form I / (c + l r + q r^2); the default `[0, 0, 1]` is
+//! the physical inverse square, bit for bit): a delta distribution in direction, so it is only
 //! reached by light sampling (the sample's `pdf` is 1 with respect to that
 //! delta, and no MIS applies). Its power, for light selection, is the
 //! luminance of `4 pi I`.
@@ -18,7 +20,16 @@ pub struct PointLight {
     pub position: Vec3,
     /// Radiant intensity, W/sr.
     pub intensity: Vec3,
+    /// Falloff `[constant, linear, quadratic]`: radiance arrives as
+    /// I / (c + l r + q r^2). [`PHYSICAL`] is the inverse square; other
+    /// values serve the course formats (`.test` `attenuation`, CS184's
+    /// unattenuated point light) and are a named, documented departure from
+    /// physics, kept where the file asked for it.
+    pub attenuation: [f32; 3],
 }
+
+/// The physical falloff, 1 / r^2.
+pub const PHYSICAL: [f32; 3] = [0.0, 0.0, 1.0];
 
 impl PointLight {
     /// A point light at `position` with `intensity` (W/sr).
@@ -26,7 +37,19 @@ impl PointLight {
         PointLight {
             position,
             intensity,
+            attenuation: PHYSICAL,
         }
+    }
+
+    /// The same light with falloff 1 / (c + l r + q r^2). `None` unless the
+    /// three are finite and non-negative and the denominator is positive
+    /// for every r > 0 (`l > 0` or `q > 0`, or `c > 0`).
+    pub fn with_attenuation(self, [c, l, q]: [f32; 3]) -> Option<Self> {
+        let ok = [c, l, q].iter().all(|x| x.is_finite() && *x >= 0.0) && c + l + q > 0.0;
+        ok.then_some(PointLight {
+            attenuation: [c, l, q],
+            ..self
+        })
     }
 
     /// The light as seen from `from`: `None` when `from` is at the light
@@ -48,7 +71,9 @@ impl PointLight {
         };
         Some(DeltaLightSample {
             wi,
-            li: self.intensity / dist2,
+            // with PHYSICAL: 0 + 0 * dist + 1 * dist2 == dist2 exactly
+            li: self.intensity
+                / (self.attenuation[0] + self.attenuation[1] * dist + self.attenuation[2] * dist2),
             dist,
             pdf: 1.0,
             shadow: spawn_ray_to(from, &light),
@@ -96,6 +121,27 @@ mod tests {
             assert!(sh.t_max < s.dist && sh.t_max > 0.99 * s.dist);
         }
         assert!(light.sample_li(&at(light.position)).is_none());
+    }
+
+    #[test]
+    fn attenuation_follows_the_course_formula() {
+        let i = Vec3::splat(12.0);
+        let light = PointLight::new(Vec3::new(0.0, 2.0, 0.0), i);
+        let s = light.sample_li(&at(Vec3::ZERO)).unwrap();
+        assert_eq!(s.li, i / 4.0);
+        let flat = light.with_attenuation([1.0, 0.0, 0.0]).unwrap();
+        assert_eq!(flat.sample_li(&at(Vec3::ZERO)).unwrap().li, i);
+        let mixed = light.with_attenuation([1.0, 0.5, 0.25]).unwrap();
+        // 1 + 0.5 * 2 + 0.25 * 4 = 3
+        assert_eq!(mixed.sample_li(&at(Vec3::ZERO)).unwrap().li, i / 3.0);
+        for bad in [
+            [0.0, 0.0, 0.0],
+            [-1.0, 0.0, 1.0],
+            [f32::NAN, 0.0, 1.0],
+            [0.0, f32::INFINITY, 0.0],
+        ] {
+            assert!(light.with_attenuation(bad).is_none(), "{bad:?}");
+        }
     }
 
     #[test]

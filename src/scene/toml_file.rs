@@ -195,6 +195,7 @@ struct LightToml {
     intensity: Option<Rgb>,
     direction: Option<[f32; 3]>,
     irradiance: Option<Rgb>,
+    attenuation: Option<[f32; 3]>,
 }
 
 /// A colour-like value: one number or an `[r, g, b]` triple.
@@ -684,10 +685,11 @@ pub fn load(path: &Path) -> Result<Scene> {
             ("intensity", l.intensity.is_some()),
             ("direction", l.direction.is_some()),
             ("irradiance", l.irradiance.is_some()),
+            ("attenuation", l.attenuation.is_some()),
         ];
         let allowed: &[&str] = match l.kind.as_str() {
             "environment" => &["radiance", "file"],
-            "point" => &["position", "intensity"],
+            "point" => &["position", "intensity", "attenuation"],
             "directional" => &["direction", "irradiance"],
             other => {
                 return Err(fail(format!(
@@ -735,7 +737,15 @@ pub fn load(path: &Path) -> Result<Scene> {
                     .ok_or_else(|| fail("point light needs `position`".to_string()))?;
                 let p = check_point(path, line, "position", p)?;
                 let i = check_colour(path, line, "intensity", need(l.intensity, "intensity")?)?;
-                scene.point_lights.push(PointLight::new(p, i));
+                let mut light = PointLight::new(p, i);
+                if let Some(a) = l.attenuation {
+                    light = light.with_attenuation(a).ok_or_else(|| {
+                        fail(format!(
+                            "point light: `attenuation` [constant, linear, quadratic] must be finite, non-negative and not all zero, got {a:?}"
+                        ))
+                    })?;
+                }
+                scene.point_lights.push(light);
             }
             _ => {
                 let d = l
