@@ -111,17 +111,15 @@ impl Writer<'_> {
                 keys.push(format!("alpha = {}", num(c.microfacet.alpha)));
                 keys.push(format!("eta = {}", rgb(c.eta)));
                 keys.push(format!("k = {}", rgb(c.k)));
-                let d = match c.microfacet.distribution {
-                    Distribution::Ggx => "ggx",
-                    Distribution::Beckmann => "beckmann",
-                };
-                keys.push(format!("distribution = \"{d}\""));
+                keys.push(distribution(c.microfacet.distribution));
             }
             Bsdf::Plastic(p) => {
                 keys.push("type = \"plastic\"".to_string());
                 keys.push(format!("diffuse = {}", rgb(p.diffuse())));
                 keys.push(format!("ior = {}", num(p.ior())));
                 keys.push(format!("alpha = {}", num(p.microfacet().alpha)));
+                keys.push(distribution(p.microfacet().distribution));
+                keys.push(format!("nonlinear = {}", p.nonlinear()));
             }
         }
         if let Some(t) = &m.texture {
@@ -299,4 +297,13 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
     w.written.files.push(out.to_path_buf());
     film::write_file_atomically(out, t.as_bytes())?;
     Ok(w.written)
+}
+
+/// The `distribution = "..."` key.
+fn distribution(d: Distribution) -> String {
+    let name = match d {
+        Distribution::Ggx => "ggx",
+        Distribution::Beckmann => "beckmann",
+    };
+    format!("distribution = \"{name}\"")
 }

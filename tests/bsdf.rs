@@ -30,8 +30,8 @@ use embertrace::sampler::Sampler;
 use embertrace::sampling::square_to_uniform_sphere;
 use std::f64::consts::PI;
 
-/// Chi-square tests (9) plus binomial tests (5) in this file.
-const DISCRETE_TESTS: usize = 9 + 5;
+/// Chi-square tests (10) plus binomial tests (5) in this file.
+const DISCRETE_TESTS: usize = 10 + 5;
 /// Monte Carlo bands in this file: conductor albedo (2 distributions x 3
 /// roughnesses x 3 angles), white plastic (2 x 3 angles), small-alpha
 /// conductor (3 roughnesses x 3 angles).
@@ -107,6 +107,18 @@ fn zoo() -> Vec<(String, Bsdf)> {
                 .into(),
         ));
     }
+    v.push((
+        "plastic beckmann linear 0.3".into(),
+        Plastic::with_options(
+            Vec3::new(0.8, 0.5, 0.2),
+            1.5,
+            0.3,
+            Distribution::Beckmann,
+            false,
+        )
+        .unwrap()
+        .into(),
+    ));
     v
 }
 
@@ -457,6 +469,10 @@ fn chi2_plastic() {
         let name = format!("plastic alpha {alpha} theta {theta}");
         chi2_reflective(&name, &b, dir(theta, 200.0), 1210 + k as u64);
     }
+    let b: Bsdf = Plastic::with_options(rho, 1.5, 0.2, Distribution::Beckmann, false)
+        .unwrap()
+        .into();
+    chi2_reflective("plastic beckmann linear", &b, dir(50.0, 10.0), 1213);
 }
 
 /// The exact Fresnel reflectance in f64, written out independently of the

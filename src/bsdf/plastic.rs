@@ -40,7 +40,17 @@
 //! weighting for the base. The returned pdf of a non-delta sample is the
 //! mixture `p_s pdf_coat + (1 - p_s) cos / pi`.
 //!
-//! The coat uses GGX. Build a `Plastic` once per material: [`Plastic::new`]
+//! **Linear base (Mitsuba's default, `nonlinear = false`).** Mitsuba sums the
+//! internal bounces as `1 / (1 - r_int)` instead of `1 / (1 - rho r_int)`
+//! unless its `nonlinear` flag is set: the base's colour then scales
+//! linearly with `rho`, and a white base is no longer exactly
+//! energy-conserving. [`Plastic::with_options`] offers both, so that a
+//! Mitsuba scene renders as Mitsuba means it; the TOML default stays the
+//! energy-conserving `nonlinear = true`.
+//!
+//! The coat uses GGX unless [`Plastic::with_options`] picks Beckmann (as
+//! Mitsuba's `roughplastic` does by default). Build a `Plastic` once per
+//! material: [`Plastic::new`]
 //! integrates `E(mu)` (about 15 ms for a rough coat, measured in the test
 //! profile); evaluation then costs a table lookup.
 //!
@@ -83,6 +93,9 @@ pub struct Plastic {
     /// The base lobe's albedo factor `kd pi (1 - E_avg)`, averaged over
     /// channels, for the lobe choice.
     base_albedo: f32,
+    /// Internal bounces sum as `1 / (1 - rho r_int)` (true) or
+    /// `1 / (1 - r_int)` (false, Mitsuba's default).
+    nonlinear: bool,
 }
 
 impl Plastic {
@@ -92,12 +105,24 @@ impl Plastic {
     /// below [`Microfacet::SMOOTH_ALPHA`] the coat is smooth). An error names
     /// the offending scene key.
     pub fn new(diffuse: Vec3, ior: f32, alpha: f32) -> Result<Self, String> {
+        Self::with_options(diffuse, ior, alpha, Distribution::Ggx, true)
+    }
+
+    /// [`Plastic::new`] with the coat's microfacet `distribution` and the
+    /// base's bounce sum chosen (`nonlinear`, see the module notes).
+    pub fn with_options(
+        diffuse: Vec3,
+        ior: f32,
+        alpha: f32,
+        distribution: Distribution,
+        nonlinear: bool,
+    ) -> Result<Self, String> {
         super::check_unit_rgb("diffuse", diffuse)?;
         if !(ior.is_finite() && ior >= 1.0) {
             return Err(format!("`ior` must be a finite number >= 1, got {ior}"));
         }
         super::check_alpha(alpha)?;
-        let microfacet = Microfacet::new(Distribution::Ggx, alpha);
+        let microfacet = Microfacet::new(distribution, alpha);
         let mut p = Plastic {
             diffuse,
             ior,
@@ -106,6 +131,7 @@ impl Plastic {
             coat_avg: 0.0,
             kd: Vec3::ZERO,
             base_albedo: 0.0,
+            nonlinear,
         };
         if !microfacet.is_smooth() {
             for (i, e) in p.coat_albedo.iter_mut().enumerate() {
@@ -136,7 +162,13 @@ impl Plastic {
         let eta2 = self.ior * self.ior;
         let e_avg = self.coat_avg;
         self.diffuse = diffuse;
-        self.kd = diffuse / (PI * (Vec3::splat(eta2) - diffuse * (eta2 - 1.0 + e_avg)));
+        // eta^2 (1 - rho r_int) = eta^2 - rho (eta^2 - 1 + E_avg); linear:
+        // eta^2 (1 - r_int) = 1 - E_avg
+        self.kd = if self.nonlinear {
+            diffuse / (PI * (Vec3::splat(eta2) - diffuse * (eta2 - 1.0 + e_avg)))
+        } else {
+            diffuse / (PI * (1.0 - e_avg))
+        };
         let a = self.kd * (PI * (1.0 - e_avg));
         self.base_albedo = (a.x + a.y + a.z) / 3.0;
     }
@@ -151,9 +183,14 @@ impl Plastic {
         self.ior
     }
 
-    /// The coat's microfacet distribution (GGX).
+    /// The coat's microfacet distribution and roughness.
     pub fn microfacet(&self) -> Microfacet {
         self.microfacet
+    }
+
+    /// Whether the base's bounces sum non-linearly in its albedo.
+    pub fn nonlinear(&self) -> bool {
+        self.nonlinear
     }
 
     /// The coat's directional albedo `E(mu)` from outside.
@@ -336,5 +373,35 @@ mod tests {
             assert!((0.0..=1.0).contains(&e));
         }
         assert!(p.coat(0.05) > e1);
+    }
+
+    /// Mitsuba's linear base: the same as the non-linear one for a white
+    /// base, and linear in the albedo otherwise (the coat is a delta lobe
+    /// here, so `eval` is the base alone).
+    #[test]
+    fn linear_base_scales_with_albedo() {
+        let (wo, wi) = (
+            Vec3::new(0.3, 0.1, 0.9).normalize(),
+            Vec3::new(-0.5, 0.2, 0.6).normalize(),
+        );
+        let lin = |rho: f32| {
+            Plastic::with_options(Vec3::splat(rho), 1.5, 0.0, Distribution::Ggx, false)
+                .unwrap()
+                .eval(wo, wi)
+        };
+        let non = |rho: f32| {
+            Plastic::new(Vec3::splat(rho), 1.5, 0.0)
+                .unwrap()
+                .eval(wo, wi)
+        };
+        let (l1, n1) = (lin(1.0), non(1.0));
+        assert!((l1 - n1).abs().max_element() <= 1e-6 * n1.x, "{l1} vs {n1}");
+        let l5 = lin(0.5);
+        assert!(
+            (l5 - 0.5 * l1).abs().max_element() <= 1e-6 * l1.x,
+            "{l5} vs {l1}"
+        );
+        // the non-linear sum weights a darker base less
+        assert!(non(0.5).x < l5.x);
     }
 }

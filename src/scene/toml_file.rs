@@ -150,6 +150,7 @@ struct MaterialToml {
     eta: Option<Rgb>,
     k: Option<Rgb>,
     distribution: Option<String>,
+    nonlinear: Option<bool>,
     emission: Option<Rgb>,
     two_sided: Option<bool>,
 }
@@ -167,6 +168,7 @@ impl MaterialToml {
             ("eta", self.eta.is_some()),
             ("k", self.k.is_some()),
             ("distribution", self.distribution.is_some()),
+            ("nonlinear", self.nonlinear.is_some()),
         ];
         present
             .iter()
@@ -343,7 +345,14 @@ fn keys_of_type(kind: &str) -> Option<&'static [&'static str]> {
         "mirror" => &["reflectance"],
         "glass" => &["ior", "reflectance", "transmittance"],
         "conductor" => &["alpha", "eta", "k", "distribution"],
-        "plastic" => &["diffuse", "texture", "ior", "alpha"],
+        "plastic" => &[
+            "diffuse",
+            "texture",
+            "ior",
+            "alpha",
+            "distribution",
+            "nonlinear",
+        ],
         _ => return None,
     })
 }
@@ -408,6 +417,12 @@ fn apply_material(
                 )));
             }
             let ior = over.ior.unwrap_or(1.5);
+            let distribution = match &over.distribution {
+                Some(d) => d
+                    .parse::<Distribution>()
+                    .map_err(|e| fail(format!("material.distribution: {e}")))?,
+                None => Distribution::Ggx,
+            };
             let bsdf = match kind {
                 "diffuse" => Bsdf::Diffuse(Diffuse {
                     albedo: unit("diffuse", over.diffuse, 0.8)?,
@@ -420,24 +435,18 @@ fn apply_material(
                     reflectance: unit("reflectance", over.reflectance, 1.0)?,
                     transmittance: unit("transmittance", over.transmittance, 1.0)?,
                 }),
-                "conductor" => {
-                    let distribution = match &over.distribution {
-                        Some(d) => d
-                            .parse::<Distribution>()
-                            .map_err(|e| fail(format!("material.distribution: {e}")))?,
-                        None => Distribution::Ggx,
-                    };
-                    Bsdf::Conductor(Conductor {
-                        eta: over.eta.map_or(Vec3::ZERO, |c| c.0),
-                        k: over.k.map_or(Vec3::ONE, |c| c.0),
-                        microfacet: Microfacet::new(distribution, over.alpha.unwrap_or(0.1)),
-                    })
-                }
+                "conductor" => Bsdf::Conductor(Conductor {
+                    eta: over.eta.map_or(Vec3::ZERO, |c| c.0),
+                    k: over.k.map_or(Vec3::ONE, |c| c.0),
+                    microfacet: Microfacet::new(distribution, over.alpha.unwrap_or(0.1)),
+                }),
                 _ => Bsdf::Plastic(
-                    Plastic::new(
+                    Plastic::with_options(
                         unit("diffuse", over.diffuse, 0.8)?,
                         ior,
                         over.alpha.unwrap_or(0.0),
+                        distribution,
+                        over.nonlinear.unwrap_or(true),
                     )
                     .map_err(|e| fail(format!("material: {e}")))?,
                 ),
