@@ -230,8 +230,8 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
     let r = &scene.render;
     let _ = write!(
         t,
-        "\n[film]\nresolution = [{rw}, {rh}]\n\n[render]\nspp = {}\nmax_depth = {}\nlight_samples = {}\nseed = {}\n",
-        r.spp, r.max_depth, r.light_samples, r.seed
+        "\n[film]\nresolution = [{rw}, {rh}]\n\n[render]\nspp = {}\nmax_depth = {}\nlight_samples = {}\nseed = {}\nrr_depth = {}\n",
+        r.spp, r.max_depth, r.light_samples, r.seed, r.rr_depth
     );
     // meshes: runs of consecutive triangles with one material
     let n = scene.triangle_count();

@@ -248,9 +248,10 @@ struct RenderArgs {
     /// [default: throughput-based].
     #[arg(long = "rr", value_name = "P")]
     rr: Option<f32>,
-    /// First bounce at which Russian roulette may end a path.
-    #[arg(long = "rr-depth", default_value_t = 3)]
-    rr_depth: u32,
+    /// First bounce at which Russian roulette may end a path [default: the
+    /// scene's, 3 unless it says].
+    #[arg(long = "rr-depth")]
+    rr_depth: Option<u32>,
     /// Write a JSON report of the run.
     #[arg(long, value_name = "FILE")]
     report: Option<PathBuf>,
@@ -480,6 +481,7 @@ fn run_study(args: StudyArgs) -> Result<()> {
                 .light_samples
                 .unwrap_or(scene.render.light_samples)
                 .max(1),
+            rr_depth: scene.render.rr_depth,
             ..IntegratorSettings::default()
         },
         spp: args.spp.unwrap_or(scene.render.spp).max(1),
@@ -600,6 +602,7 @@ fn run_bench(args: BenchArgs) -> Result<()> {
         };
         let integrator = IntegratorSettings {
             max_depth: scene.render.max_depth,
+            rr_depth: scene.render.rr_depth,
             ..IntegratorSettings::default()
         };
         let report = embertrace::effects_bench::run(&scene, &settings, integrator, &|line| {
@@ -796,7 +799,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
             .max(1),
         direct: args.direct,
         roulette: args.rr.map_or(Roulette::Throughput, Roulette::Fixed),
-        rr_depth: args.rr_depth,
+        rr_depth: args.rr_depth.unwrap_or(scene.render.rr_depth),
     };
     let backend = args.accel.unwrap_or_else(Backend::default_backend);
 

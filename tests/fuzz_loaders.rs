@@ -1,7 +1,7 @@
 //! A bounded, deterministic mutation fuzzer for every scene loader (issue 4
 //! item 5, hard case 28): the TOML scene, the OBJ mesh (through tobj), its
-//! MTL library, the `[[procedural]]` source and PLY meshes (ASCII and both
-//! binary byte orders). Each input is a bundled or
+//! MTL library, the `[[procedural]]` source, PLY meshes (ASCII and both
+//! binary byte orders) and Mitsuba 3 XML scenes. Each input is a bundled or
 //! hand-written seed file with one to four random mutations (byte changes,
 //! hostile tokens such as `nan`, `1e30`, `4294967296`, huge indices or
 //! counts, deleted or repeated ranges, truncation; invalid UTF-8 included).
@@ -551,4 +551,42 @@ fn fuzz_ply_mesh() {
     let seeds: Vec<&[u8]> = seeds.iter().map(|s| &s[..]).collect();
     fuzz("ply-in-toml", &files, "mesh.ply", &seeds, "scene.toml");
     fuzz("ply", &files, "mesh.ply", &seeds, "mesh.ply");
+}
+
+/// A Mitsuba scene using most of the subset, with the fuzz OBJ.
+const MITSUBA: &str = r#"<scene version="3.0.0">
+    <default name="spp" value="4"/>
+    <integrator type="path"><integer name="max_depth" value="5"/><integer name="rr_depth" value="2"/></integrator>
+    <sensor type="thinlens">
+        <float name="fov" value="45"/><string name="fov_axis" value="diagonal"/>
+        <float name="aperture_radius" value="0.01"/><float name="focus_distance" value="3"/>
+        <transform name="to_world"><lookat origin="0, 1, 4" target="0, 0.5, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="24"/><rfilter type="box"/></film>
+    </sensor>
+    <bsdf type="twosided" id="w"><bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.5 0.4 0.3"/><string name="int_ior" value="bk7"/></bsdf></bsdf>
+    <emitter type="point"><point name="position" x="0" y="2" z="1"/><spectrum name="intensity" value="3"/></emitter>
+    <emitter type="directional"><vector name="direction" value="0, -1, -0.2"/><float name="irradiance" value="0.5"/></emitter>
+    <emitter type="constant"><rgb name="radiance" value="0.1"/></emitter>
+    <shape type="obj"><string name="filename" value="mesh.obj"/><ref id="w"/>
+        <transform name="to_world"><matrix value="1 0 0 0  0 1 0 0.1  0 0 1 0  0 0 0 1"/><rotate y="1" angle="15"/></transform></shape>
+    <shape type="disk"><boolean name="flip_normals" value="true"/><bsdf type="conductor"/>
+        <emitter type="area"><rgb name="radiance" value="2, 2, 1"/></emitter></shape>
+    <shape type="sphere"><point name="center" value="0.5 0.5 0"/><float name="radius" value="0.3"/><bsdf type="dielectric"/></shape>
+    <shape type="cube"><transform name="to_world"><scale value="0.2"/><translate x="-0.6"/></transform>
+        <bsdf type="roughconductor"><string name="distribution" value="ggx"/><rgb name="eta" value="0.2"/><rgb name="k" value="3"/></bsdf></shape>
+</scene>
+"#;
+
+#[test]
+fn fuzz_mitsuba_xml() {
+    let cbox = include_str!("data/mitsuba/cbox.xml");
+    let files = [("scene.xml", ""), ("mesh.obj", OBJ), ("mesh.mtl", MTL)];
+    fuzz(
+        "mitsuba-xml",
+        &files,
+        "scene.xml",
+        &[MITSUBA.as_bytes(), cbox.as_bytes()],
+        "scene.xml",
+    );
 }

@@ -6,6 +6,7 @@
 //! [`limits`] are enforced.
 
 pub mod limits;
+mod mitsuba;
 mod obj;
 mod ply;
 pub mod procedural;
@@ -112,6 +113,8 @@ pub struct RenderDefaults {
     pub light_samples: u32,
     /// Random seed.
     pub seed: u64,
+    /// First bounce at which Russian roulette may end a path.
+    pub rr_depth: u32,
 }
 
 impl Default for RenderDefaults {
@@ -121,6 +124,7 @@ impl Default for RenderDefaults {
             max_depth: 64,
             light_samples: 1,
             seed: 0,
+            rr_depth: 3,
         }
     }
 }
@@ -211,10 +215,13 @@ impl Scene {
             "toml" => toml_file::load(path),
             "obj" => obj::load_bare(path),
             "ply" => bare_scene(path, load_ply_mesh(path)?),
+            "xml" => mitsuba::load(path),
             _ => Err(Error::input(
                 path,
                 None,
-                format!("unknown scene format `.{ext}` (expected .toml, .obj or .ply)"),
+                format!(
+                    "unknown scene format `.{ext}` (expected .toml, .obj, .ply or Mitsuba 3 .xml)"
+                ),
             )),
         }
     }
@@ -467,6 +474,37 @@ pub struct MeshData {
     pub normals: Vec<[Vec3; 3]>,
 }
 
+impl MeshData {
+    /// Smooth vertex normals, per triangle corner: at each vertex the sum
+    /// of its triangles' unit normals weighted by the triangle's angle at
+    /// that vertex (Thürmer and Wüthrich 1998, the weighting Mitsuba uses
+    /// when a mesh has none), normalised. Degenerate triangles add nothing;
+    /// a vertex left with a zero sum gets a zero normal (shaded flat).
+    pub fn vertex_normals(&self) -> Vec<[Vec3; 3]> {
+        let mut sum = vec![Vec3::ZERO; self.positions.len()];
+        for t in &self.indices {
+            let p = t.map(|i| self.positions[i as usize]);
+            let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+            if !n.is_finite() || n == Vec3::ZERO {
+                continue;
+            }
+            for k in 0..3 {
+                let e1 = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
+                let e2 = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
+                let angle = e1.dot(e2).clamp(-1.0, 1.0).acos();
+                if angle.is_finite() {
+                    sum[t[k] as usize] += n * angle;
+                }
+            }
+        }
+        let unit: Vec<Vec3> = sum.iter().map(|n| n.normalize_or_zero()).collect();
+        self.indices
+            .iter()
+            .map(|t| t.map(|i| unit[i as usize]))
+            .collect()
+    }
+}
+
 /// Accumulates meshes into a [`Scene`], dropping triangles no backend should see.
 #[derive(Debug)]
 pub struct SceneBuilder {
@@ -512,7 +550,7 @@ impl SceneBuilder {
     /// meshes built in code (tests, parity scenes); loaders use
     /// [`SceneBuilder::add_mesh_from`], which also enforces the scene limits.
     pub fn add_mesh(&mut self, mesh: MeshData, transform: &Transform) {
-        self.place(mesh, transform, None);
+        self.place(mesh, transform.matrix(), None);
     }
 
     /// Add a mesh that the scene file describes at `line`, placed by
@@ -524,6 +562,18 @@ impl SceneBuilder {
         &mut self,
         mesh: MeshData,
         transform: &Transform,
+        line: Option<usize>,
+    ) -> Result<()> {
+        self.add_mesh_matrix(mesh, transform.matrix(), line)
+    }
+
+    /// [`SceneBuilder::add_mesh_from`] with any affine placement (a scene
+    /// format's matrix): normals go through the inverse transpose, and a
+    /// mirroring matrix (negative determinant) reverses the winding.
+    pub fn add_mesh_matrix(
+        &mut self,
+        mesh: MeshData,
+        matrix: glam::Affine3A,
         line: Option<usize>,
     ) -> Result<()> {
         let s = &self.scene;
@@ -572,15 +622,14 @@ impl SceneBuilder {
                 ));
             }
         }
-        self.place(mesh, transform, line);
+        self.place(mesh, matrix, line);
         Ok(())
     }
 
     /// Place `mesh` and report what was dropped.
-    fn place(&mut self, mesh: MeshData, transform: &Transform, line: Option<usize>) {
+    fn place(&mut self, mesh: MeshData, m: glam::Affine3A, line: Option<usize>) {
         let s = &mut self.scene;
-        let m = transform.matrix();
-        let flip = transform.mirrors();
+        let flip = m.matrix3.determinant() < 0.0;
         let base_material = s.materials.len() as u32;
         s.materials.extend(mesh.materials);
         let base_vertex = s.positions.len() as u32;
@@ -604,8 +653,16 @@ impl SceneBuilder {
             let mut uv = mesh.uvs.get(k).copied().unwrap_or([Vec2::ZERO; 3]);
             let mut ns = mesh.normals.get(k).map_or([Vec3::ZERO; 3], |c| {
                 c.map(|n| {
-                    // a zero, non-finite or degenerate normal shades flat
-                    let w = Vec3::from(normal_matrix * glam::Vec3A::from(n)).normalize_or_zero();
+                    // a zero, non-finite or degenerate normal shades flat; a
+                    // unit one (to a few ulps) is kept as it is, so that a
+                    // scene written out with its normals reads back to the
+                    // same bits
+                    let w = Vec3::from(normal_matrix * glam::Vec3A::from(n));
+                    let w = if (w.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON {
+                        w
+                    } else {
+                        w.normalize_or_zero()
+                    };
                     if w.is_finite() { w } else { Vec3::ZERO }
                 })
             });

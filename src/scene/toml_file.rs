@@ -17,6 +17,7 @@
 //! max_depth = 64
 //! light_samples = 1
 //! seed = 0
+//! rr_depth = 3                # first bounce Russian roulette may end
 //!
 //! [[mesh]]
 //! file = "cornell-box.obj"    # relative to the scene file
@@ -118,6 +119,7 @@ struct RenderToml {
     max_depth: Option<Spanned<u64>>,
     light_samples: Option<Spanned<u64>>,
     seed: Option<u64>,
+    rr_depth: Option<Spanned<u64>>,
 }
 
 #[derive(Deserialize)]
@@ -791,6 +793,9 @@ pub fn load(path: &Path) -> Result<Scene> {
                 check_spanned(path, &text, v, limits::check_light_samples)? as u32;
         }
         render.seed = r.seed.unwrap_or(render.seed);
+        if let Some(v) = &r.rr_depth {
+            render.rr_depth = check_spanned(path, &text, v, limits::check_max_depth)? as u32;
+        }
     }
     scene.render = render;
     match &file.camera {

@@ -1,0 +1,137 @@
+#!/usr/bin/env python3
+"""Write the assets of the Mitsuba XML test scenes (icosphere.obj, floor.ply,
+sky.exr, checker.png) and render each scene with Mitsuba 3 itself into
+<scene>.ref.exr (the mean of PASSES independent renders) and
+<scene>.var.exr (the variance of that mean, per pixel and channel, from the
+spread of the passes). tests/mitsuba.rs compares embertrace's renders of the
+same XML files against them, block by block.
+
+    pip install mitsuba numpy
+    # faster: apt-get install libllvm19 and
+    # DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1
+    python3 tests/data/mitsuba/make_references.py [SPP_PER_PASS]
+
+The scenes themselves are hand-written; this script only reads them.
+"""
+import json
+import math
+import os
+import struct
+import sys
+
+import mitsuba as mi
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+SCENES = ["cbox", "lights", "envmap"]
+PASSES = 8
+SPP = int(sys.argv[1]) if len(sys.argv) > 1 else 4096
+
+try:
+    mi.set_variant("llvm_ad_rgb")
+except Exception:
+    mi.set_variant("scalar_rgb")
+
+
+def icosphere():
+    """A level-1 subdivided icosahedron (80 faces) on the unit sphere,
+    without normals or UVs: Mitsuba and embertrace compute the same
+    angle-weighted vertex normals for it."""
+    t = (1 + math.sqrt(5)) / 2
+    v = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t),
+         (0, -1, -t), (0, 1, -t), (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]
+    v = [tuple(c / math.sqrt(sum(x * x for x in p)) for c in p) for p in v]
+    f = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9),
+         (5, 11, 4), (11, 10, 2), (10, 7, 6), (7, 1, 8), (3, 9, 4), (3, 4, 2),
+         (3, 2, 6), (3, 6, 8), (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10),
+         (8, 6, 7), (9, 8, 1)]
+    cache = {}
+
+    def mid(a, b):
+        key = (min(a, b), max(a, b))
+        if key not in cache:
+            p = [(x + y) / 2 for x, y in zip(v[a], v[b])]
+            n = math.sqrt(sum(x * x for x in p))
+            v.append(tuple(x / n for x in p))
+            cache[key] = len(v) - 1
+        return cache[key]
+
+    faces = []
+    for a, b, c in f:
+        ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
+        faces += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
+    with open(os.path.join(HERE, "icosphere.obj"), "w") as out:
+        out.write("# level-1 icosphere, written by make_references.py\n")
+        for p in v:
+            out.write("v %.9f %.9f %.9f\n" % p)
+        for a, b, c in faces:
+            out.write("f %d %d %d\n" % (a + 1, b + 1, c + 1))
+
+
+def floor_ply():
+    """A 6 x 6 floor at y = 0 facing +y, as binary little-endian PLY with
+    UVs (two triangles: Mitsuba's PLY reader takes no quads)."""
+    verts = [(-3, 0, 3, 0, 0), (3, 0, 3, 1, 0), (3, 0, -3, 1, 1), (-3, 0, -3, 0, 1)]
+    head = ("ply\nformat binary_little_endian 1.0\ncomment make_references.py\n"
+            "element vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+            "property float u\nproperty float v\nelement face 2\n"
+            "property list uchar int vertex_indices\nend_header\n")
+    body = b"".join(struct.pack("<5f", *p) for p in verts)
+    body += struct.pack("<B3i", 3, 0, 1, 2) + struct.pack("<B3i", 3, 0, 2, 3)
+    with open(os.path.join(HERE, "floor.ply"), "wb") as out:
+        out.write(head.encode() + body)
+
+
+def sky_exr():
+    """A 32 x 16 sky: a blue-to-white gradient with a warm bright patch."""
+    w, h = 32, 16
+    img = np.zeros((h, w, 3), dtype=np.float32)
+    for y in range(h):
+        for x in range(w):
+            t = (y + 0.5) / h
+            img[y, x] = [0.3 + 0.7 * t, 0.5 + 0.5 * t, 1.0]
+    img[3:5, 20:23] = [20.0, 16.0, 10.0]
+    mi.Bitmap(img).write(os.path.join(HERE, "sky.exr"))
+
+
+def checker_png():
+    """An 8 x 8 checker whose quadrants differ in colour, so that a flipped
+    or rotated lookup shows."""
+    img = np.zeros((8, 8, 3), dtype=np.uint8)
+    for y in range(8):
+        for x in range(8):
+            on = (x + y) % 2 == 0
+            quad = (y >= 4) * 2 + (x >= 4)
+            base = [(230, 60, 60), (60, 200, 60), (60, 60, 220), (220, 220, 220)][quad]
+            img[y, x] = base if on else (30, 30, 30)
+    mi.Bitmap(img, mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, "checker.png"))
+
+
+def render(name):
+    scene = mi.load_file(os.path.join(HERE, name + ".xml"))
+    passes = []
+    for k in range(PASSES):
+        img = mi.render(scene, spp=SPP, seed=1000 + k)
+        passes.append(np.array(img, dtype=np.float64)[:, :, :3])
+    stack = np.stack(passes)
+    mean = stack.mean(axis=0)
+    var_of_mean = stack.var(axis=0, ddof=1) / PASSES
+    mi.Bitmap(mean.astype(np.float32)).write(os.path.join(HERE, name + ".ref.exr"))
+    mi.Bitmap(var_of_mean.astype(np.float32)).write(os.path.join(HERE, name + ".var.exr"))
+    return float(mean.mean())
+
+
+if __name__ == "__main__":
+    icosphere()
+    floor_ply()
+    sky_exr()
+    checker_png()
+    info = {"generator": "tests/data/mitsuba/make_references.py",
+            "mitsuba_version": mi.__version__, "variant": mi.variant(),
+            "passes": PASSES, "spp_per_pass": SPP, "mean": {}}
+    for s in SCENES:
+        info["mean"][s] = render(s)
+        print(s, info["mean"][s], flush=True)
+    with open(os.path.join(HERE, "references.json"), "w") as out:
+        json.dump(info, out, indent=1)
+        out.write("\n")
