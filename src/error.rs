@@ -104,6 +104,30 @@ impl Error {
     }
 }
 
+/// The next run of non-white-space bytes in `bytes` from `*pos` (a word of
+/// a text header or an ASCII data section), as a byte range; `*pos` moves
+/// past it and `*line` counts the newlines skipped. `None` at the end.
+pub(crate) fn next_word(
+    bytes: &[u8],
+    pos: &mut usize,
+    line: &mut usize,
+) -> Option<std::ops::Range<usize>> {
+    while let Some(&b) = bytes.get(*pos) {
+        if !b.is_ascii_whitespace() {
+            break;
+        }
+        if b == b'\n' {
+            *line += 1;
+        }
+        *pos += 1;
+    }
+    let start = *pos;
+    while bytes.get(*pos).is_some_and(|b| !b.is_ascii_whitespace()) {
+        *pos += 1;
+    }
+    (*pos > start).then_some(start..*pos)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

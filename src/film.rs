@@ -878,25 +878,10 @@ struct HeaderReader<'a> {
 impl<'a> HeaderReader<'a> {
     /// The next token, or `None` at the end of the file.
     fn next(&mut self) -> Option<HeaderToken<'a>> {
-        while let Some(&b) = self.bytes.get(self.pos) {
-            if !b.is_ascii_whitespace() {
-                break;
-            }
-            if b == b'\n' {
-                self.line += 1;
-            }
-            self.pos += 1;
-        }
-        let start = self.pos;
-        while self
-            .bytes
-            .get(self.pos)
-            .is_some_and(|b| !b.is_ascii_whitespace())
-        {
-            self.pos += 1;
-        }
-        (self.pos > start).then(|| HeaderToken {
-            text: &self.bytes[start..self.pos],
+        let bytes = self.bytes;
+        let range = crate::error::next_word(bytes, &mut self.pos, &mut self.line)?;
+        Some(HeaderToken {
+            text: &bytes[range],
             line: self.line,
         })
     }

@@ -289,27 +289,12 @@ impl Body<'_> {
     fn value(&mut self, ty: Scalar) -> Result<f64> {
         match self.format {
             Format::Ascii => {
-                while let Some(&b) = self.bytes.get(self.pos) {
-                    if !b.is_ascii_whitespace() {
-                        break;
-                    }
-                    if b == b'\n' {
-                        self.line += 1;
-                    }
-                    self.pos += 1;
-                }
-                let start = self.pos;
-                while self
-                    .bytes
-                    .get(self.pos)
-                    .is_some_and(|b| !b.is_ascii_whitespace())
-                {
-                    self.pos += 1;
-                }
-                if start == self.pos {
+                let Some(range) =
+                    crate::error::next_word(self.bytes, &mut self.pos, &mut self.line)
+                else {
                     return Err(self.fail("the file ends early (expected more values)"));
-                }
-                let token = String::from_utf8_lossy(&self.bytes[start..self.pos]);
+                };
+                let token = String::from_utf8_lossy(&self.bytes[range]);
                 let v = token.parse::<f64>().map_err(|_| {
                     self.fail(format!(
                         "cannot read `{}` as a number",
