@@ -444,12 +444,6 @@ impl Transform {
         };
         glam::Affine3A::from_scale_rotation_translation(self.scale, r, self.translate)
     }
-
-    /// Whether the transform mirrors space (its determinant is negative), in
-    /// which case triangle winding is reversed to keep fronts in front.
-    pub fn mirrors(&self) -> bool {
-        self.scale.x * self.scale.y * self.scale.z < 0.0
-    }
 }
 
 /// A mesh as a loader reads it, before placement: positions, triangles and a
