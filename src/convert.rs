@@ -20,7 +20,7 @@
 //! whose vertex normals are normalised again on loading, which may move them
 //! by an ulp.
 
-use crate::bsdf::{Bsdf, Distribution};
+use crate::bsdf::{Bsdf, Distribution, Lobe};
 use crate::error::{Error, Result};
 use crate::film::{self, Film, OutputOptions};
 use crate::math::Vec3;
@@ -120,6 +120,15 @@ impl Writer<'_> {
                 keys.push(format!("alpha = {}", num(p.microfacet().alpha)));
                 keys.push(distribution(p.microfacet().distribution));
                 keys.push(format!("nonlinear = {}", p.nonlinear()));
+            }
+            Bsdf::Phong(p) => {
+                keys.push("type = \"phong\"".to_string());
+                keys.push(format!("diffuse = {}", rgb(p.diffuse)));
+                keys.push(format!("specular = {}", rgb(p.specular)));
+                keys.push(match p.lobe {
+                    Lobe::Phong { shininess } => format!("shininess = {}", num(shininess)),
+                    Lobe::Ggx { roughness } => format!("roughness = {}", num(roughness)),
+                });
             }
         }
         if let Some(t) = &m.texture {

@@ -20,7 +20,7 @@ use std::str::FromStr;
 
 /// The effect names, in the order `plan` lists them. These names are fixed:
 /// scripts read them from `plan --json` and from the render report.
-pub const EFFECTS: [&str; 15] = [
+pub const EFFECTS: [&str; 16] = [
     "diffuse",
     "mirror",
     "glass",
@@ -36,6 +36,9 @@ pub const EFFECTS: [&str; 15] = [
     "smooth_normals",
     "thin_lens",
     "indirect",
+    // appended (not grouped with the materials) so that the positions of
+    // the earlier names in `plan --json` stay as they were
+    "phong",
 ];
 
 /// Which kernel to run (`--plan`).
@@ -279,11 +282,24 @@ impl Plan {
             "bounces past the first (max_depth >= 2 and something to hit)",
             "recursive BSDF-sampled continuation with Russian roulette (integrator)",
         );
+        add(
+            "phong",
+            of_type("phong"),
+            "phong materials",
+            "Lambertian plus a Phong or GGX-Schlick lobe, mixture sampling (bsdf/phong.rs)",
+        );
         let on = |n: &str| effects.iter().any(|e| e.name == n && e.on);
         let kernel = Kernel {
-            materials: ["mirror", "glass", "conductor", "plastic", "texture"]
-                .iter()
-                .any(|n| on(n)),
+            materials: [
+                "mirror",
+                "glass",
+                "conductor",
+                "plastic",
+                "phong",
+                "texture",
+            ]
+            .iter()
+            .any(|n| on(n)),
             delta: !delta_bsdfs.is_empty() || on("point_light") || on("directional_light"),
             environment: on("environment") || on("environment_map"),
             emitters: on("area_light"),

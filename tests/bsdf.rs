@@ -23,19 +23,21 @@ mod common;
 use common::{batch_means, chi2_test, sidak_z};
 use embertrace::bsdf::fresnel::{fr_conductor, fr_dielectric};
 use embertrace::bsdf::{
-    Bsdf, BsdfSample, Bxdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Mirror, Plastic,
+    Bsdf, BsdfSample, Bxdf, Conductor, Diffuse, Distribution, Glass, Lobe, Microfacet, Mirror,
+    Phong, Plastic,
 };
 use embertrace::math::{Vec2, Vec3};
 use embertrace::sampler::Sampler;
 use embertrace::sampling::square_to_uniform_sphere;
 use std::f64::consts::PI;
 
-/// Chi-square tests (10) plus binomial tests (5) in this file.
-const DISCRETE_TESTS: usize = 10 + 5;
+/// Chi-square tests (10 + 4 Phong) plus binomial tests (5) in this file.
+const DISCRETE_TESTS: usize = 14 + 5;
 /// Monte Carlo bands in this file: conductor albedo (2 distributions x 3
 /// roughnesses x 3 angles), white plastic (2 x 3 angles), small-alpha
-/// conductor (3 roughnesses x 3 angles).
-const MC_TESTS: usize = 18 + 6 + 9;
+/// conductor (3 roughnesses x 3 angles), the Phong lobe at normal incidence
+/// (3 exponents).
+const MC_TESTS: usize = 18 + 6 + 9 + 3;
 
 /// The extreme random numbers of hard case 14: 0, the smallest subnormal,
 /// 1/2, the largest float below 1, and 1.
@@ -119,7 +121,24 @@ fn zoo() -> Vec<(String, Bsdf)> {
         .unwrap()
         .into(),
     ));
+    for lobe in [
+        Lobe::Phong { shininess: 0.0 },
+        Lobe::Phong { shininess: 20.0 },
+        Lobe::Phong { shininess: 5000.0 },
+        Lobe::Ggx { roughness: 0.001 },
+        Lobe::Ggx { roughness: 0.4 },
+    ] {
+        v.push((format!("phong {lobe:?}"), phong(lobe).into()));
+    }
     v
+}
+
+fn phong(lobe: Lobe) -> Phong {
+    Phong {
+        diffuse: Vec3::new(0.5, 0.3, 0.1),
+        specular: Vec3::new(0.3, 0.4, 0.5),
+        lobe,
+    }
 }
 
 fn rel_close(a: Vec3, b: Vec3, rel: f32) -> bool {
@@ -473,6 +492,57 @@ fn chi2_plastic() {
         .unwrap()
         .into();
     chi2_reflective("plastic beckmann linear", &b, dir(50.0, 10.0), 1213);
+}
+
+#[test]
+fn chi2_phong() {
+    // a wide and a narrow Phong lobe, a rough and a sharp GGX one (whose
+    // reflected directions near grazing often leave the hemisphere)
+    let cases = [
+        (Lobe::Phong { shininess: 1.0 }, 30.0),
+        (Lobe::Phong { shininess: 60.0 }, 60.0),
+        (Lobe::Ggx { roughness: 0.5 }, 45.0),
+        (Lobe::Ggx { roughness: 0.08 }, 80.0),
+    ];
+    for (k, &(lobe, theta)) in cases.iter().enumerate() {
+        let b: Bsdf = phong(lobe).into();
+        chi2_reflective(
+            &format!("phong {lobe:?} theta {theta}"),
+            &b,
+            dir(theta, 75.0),
+            1300 + k as u64,
+        );
+    }
+}
+
+/// The normalised Phong lobe reflects exactly `ks` of the light arriving
+/// along the normal (`(s + 2) / (2 pi)` times the integral of `cos^s cos`):
+/// the sampled weights of a white lobe with no diffuse term average to 1.
+#[test]
+fn phong_lobe_reflects_ks_at_normal_incidence() {
+    let z = sidak_z(1e-6, MC_TESTS);
+    for (k, s) in [1.0f32, 30.0, 1000.0].into_iter().enumerate() {
+        let b = Phong {
+            diffuse: Vec3::ZERO,
+            specular: Vec3::ONE,
+            lobe: Lobe::Phong { shininess: s },
+        };
+        let stats = batch_means(400_000, 100, |i| {
+            let mut smp = Sampler::new(1700 + k as u64, i as u64, 0);
+            b.sample(Vec3::Z, smp.next_2d())
+                .map_or(0.0, |bs| bs.weight().x as f64)
+        });
+        println!(
+            "phong s {s}: albedo {:.5} +- {:.5}",
+            stats.mean, stats.std_err
+        );
+        assert!(
+            (stats.mean - 1.0).abs() < z * stats.std_err + 1e-4,
+            "s {s}: {} +- {}",
+            stats.mean,
+            stats.std_err
+        );
+    }
 }
 
 /// The exact Fresnel reflectance in f64, written out independently of the

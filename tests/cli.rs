@@ -331,6 +331,32 @@ fn cases() -> Vec<Case> {
             expect: vec!["s.toml:5", "velvet", "conductor"],
         },
         Case {
+            name: "a phong material with both lobes",
+            files: vec![
+                ("m.obj", GOOD_OBJ.into()),
+                (
+                    "s.toml",
+                    toml_with_mesh(
+                        "material = { type = \"phong\", shininess = 10, roughness = 0.2 }",
+                    ),
+                ),
+            ],
+            scene: "s.toml",
+            expect: vec!["s.toml:5", "material.shininess", "material.roughness"],
+        },
+        Case {
+            name: "a phong material with a negative shininess",
+            files: vec![
+                ("m.obj", GOOD_OBJ.into()),
+                (
+                    "s.toml",
+                    toml_with_mesh("material = { type = \"phong\", shininess = -2 }"),
+                ),
+            ],
+            scene: "s.toml",
+            expect: vec!["s.toml:5", "shininess = -2"],
+        },
+        Case {
             name: "glass with a zero index",
             files: vec![
                 ("m.obj", GOOD_OBJ.into()),

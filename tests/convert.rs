@@ -101,6 +101,14 @@ material = { type = "plastic", diffuse = 0.5, alpha = 0.1, texture = "t.png" }
 center = [0.3, 0.4, 0.0]
 radius = 0.3
 material = { type = "conductor", alpha = 0.3, distribution = "beckmann", emission = 0.5, two_sided = true }
+[[sphere]]
+center = [-0.5, 0.3, 0.1]
+radius = 0.2
+material = { type = "phong", diffuse = [0.5, 0.4, 0.3], specular = 0.25, shininess = 32.5 }
+[[sphere]]
+center = [0.6, 0.3, -0.4]
+radius = 0.2
+material = { type = "phong", diffuse = 0.2, specular = [0.7, 0.6, 0.5], roughness = 0.15 }
 [[light]]
 type = "point"
 position = [0.0, 1.5, 0.5]

@@ -202,6 +202,18 @@ f 1/1/1 2/2/2 3/3/3\nf 1/1/1 3/3/3 4/4/4\n";
             ),
         ),
         (
+            "phong",
+            format!(
+                "{room}[[mesh]]\nfile = \"quad.obj\"\nmaterial = {{ type = \"phong\", diffuse = [0.5, 0.2, 0.1], specular = 0.3, shininess = 40.0, texture = \"tex.png\" }}\n"
+            ),
+        ),
+        (
+            "phong ggx",
+            format!(
+                "{room}[[mesh]]\nfile = \"quad.obj\"\nmaterial = {{ type = \"phong\", diffuse = 0.4, specular = [0.2, 0.5, 0.3], roughness = 0.25 }}\n"
+            ),
+        ),
+        (
             "emissive sphere",
             format!(
                 "{room}[[sphere]]\ncenter = [0.3, 0.5, 0.2]\nradius = 0.2\nmaterial = {{ emission = [3.0, 3.0, 3.0] }}\n"

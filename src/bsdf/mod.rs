@@ -3,7 +3,7 @@
 //!
 //! - `wo` and `wi` both point away from the surface.
 //! - The frame's +z axis is the normal turned towards `wo` for the reflective
-//!   BSDFs ([`Diffuse`], [`Mirror`], [`Conductor`], [`Plastic`]: they see
+//!   BSDFs ([`Diffuse`], [`Mirror`], [`Conductor`], [`Plastic`], [`Phong`]: they see
 //!   `wo.z > 0` and return zero or `None` otherwise). A BSDF that transmits
 //!   ([`Glass`], see [`Bxdf::has_transmission`]) needs to know which side is
 //!   inside: its +z is the surface's outward normal and `wo.z < 0` means `wo`
@@ -32,6 +32,7 @@
 //! | [`Glass`] | delta reflection + delta refraction | `glass.rs` |
 //! | [`Conductor`] | GGX or Beckmann microfacet, delta when smooth | `conductor.rs` |
 //! | [`Plastic`] | GGX or delta coat over a Lambertian base | `plastic.rs` |
+//! | [`Phong`] | Lambertian plus a Phong or GGX-Schlick lobe (CSE 168) | `phong.rs` |
 //!
 //! Each implements [`Bxdf`], so an estimator can be generic over the material
 //! types a scene uses; [`Bsdf`] is the closed sum of all of them.
@@ -42,6 +43,7 @@ pub mod fresnel;
 mod glass;
 pub mod microfacet;
 mod mirror;
+mod phong;
 mod plastic;
 
 pub use conductor::Conductor;
@@ -49,6 +51,7 @@ pub use diffuse::Diffuse;
 pub use glass::Glass;
 pub use microfacet::{Distribution, Microfacet};
 pub use mirror::Mirror;
+pub use phong::{Lobe, Phong};
 pub use plastic::Plastic;
 
 use crate::math::{Vec2, Vec3};
@@ -140,6 +143,8 @@ pub enum Bsdf {
     Conductor(Conductor),
     /// Diffuse base under a dielectric coat.
     Plastic(Plastic),
+    /// Diffuse plus a Phong or GGX lobe (the CSE 168 material).
+    Phong(Phong),
 }
 
 macro_rules! dispatch {
@@ -150,6 +155,7 @@ macro_rules! dispatch {
             Bsdf::Glass($b) => $e,
             Bsdf::Conductor($b) => $e,
             Bsdf::Plastic($b) => $e,
+            Bsdf::Phong($b) => $e,
         }
     };
 }
@@ -195,6 +201,7 @@ impl Bsdf {
             Bsdf::Glass(g) => g.validate(),
             Bsdf::Conductor(c) => c.validate(),
             Bsdf::Plastic(_) => Ok(()),
+            Bsdf::Phong(p) => p.validate(),
         }
     }
 }
@@ -247,6 +254,12 @@ impl From<Conductor> for Bsdf {
 impl From<Plastic> for Bsdf {
     fn from(b: Plastic) -> Self {
         Bsdf::Plastic(b)
+    }
+}
+
+impl From<Phong> for Bsdf {
+    fn from(b: Phong) -> Self {
+        Bsdf::Phong(b)
     }
 }
 

@@ -25,7 +25,7 @@
 //! throughput stays finite.
 
 use crate::accel::{Accelerator, Hit};
-use crate::bsdf::{Bsdf, Bxdf, Diffuse};
+use crate::bsdf::{Bsdf, Bxdf, Diffuse, Phong};
 use crate::camera::Camera;
 use crate::light::Lights;
 use crate::math::{Frame, Ray, SurfacePoint, Vec2, Vec3, gamma, spawn_ray};
@@ -464,6 +464,10 @@ impl<'a> PathTracer<'a> {
         let albedo = t.eval(uv).clamp(Vec3::ZERO, Vec3::ONE);
         let textured = match &material.bsdf {
             Bsdf::Plastic(p) => Bsdf::Plastic(p.with_diffuse(albedo)),
+            Bsdf::Phong(p) => Bsdf::Phong(Phong {
+                diffuse: albedo,
+                ..*p
+            }),
             _ => Bsdf::Diffuse(Diffuse { albedo }),
         };
         self.bounce::<Bsdf, M, D, E, A, S>(its, &textured, beta, eta_scale, depth, sampler, rays)

@@ -71,6 +71,7 @@ impl Material {
             Bsdf::Glass(_) => "glass",
             Bsdf::Conductor(_) => "conductor",
             Bsdf::Plastic(_) => "plastic",
+            Bsdf::Phong(_) => "phong",
         }
     }
 }

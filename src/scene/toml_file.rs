@@ -36,7 +36,9 @@ use super::{
     load_ply_mesh,
 };
 use crate::accel::Sphere;
-use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Mirror, Plastic};
+use crate::bsdf::{
+    Bsdf, Conductor, Diffuse, Distribution, Glass, Lobe, Microfacet, Mirror, Phong, Plastic,
+};
 use crate::camera::ThinLens;
 use crate::error::{Error, Result};
 use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
@@ -153,6 +155,9 @@ struct MaterialToml {
     k: Option<Rgb>,
     distribution: Option<String>,
     nonlinear: Option<bool>,
+    specular: Option<Rgb>,
+    shininess: Option<f32>,
+    roughness: Option<f32>,
     emission: Option<Rgb>,
     two_sided: Option<bool>,
 }
@@ -171,6 +176,9 @@ impl MaterialToml {
             ("k", self.k.is_some()),
             ("distribution", self.distribution.is_some()),
             ("nonlinear", self.nonlinear.is_some()),
+            ("specular", self.specular.is_some()),
+            ("shininess", self.shininess.is_some()),
+            ("roughness", self.roughness.is_some()),
         ];
         present
             .iter()
@@ -355,6 +363,7 @@ fn keys_of_type(kind: &str) -> Option<&'static [&'static str]> {
             "distribution",
             "nonlinear",
         ],
+        "phong" => &["diffuse", "texture", "specular", "shininess", "roughness"],
         _ => return None,
     })
 }
@@ -364,7 +373,8 @@ fn keys_of_type(kind: &str) -> Option<&'static [&'static str]> {
 /// With `type`, the table describes the whole material: `mat` keeps only its
 /// name, and keys the table leaves out take the type's defaults (diffuse 0.8;
 /// reflectance and transmittance 1; ior 1.5; conductor `alpha` 0.1, `eta` 0
-/// and `k` 1 (a perfect conductor), GGX; plastic `alpha` 0). Without `type`,
+/// and `k` 1 (a perfect conductor), GGX; plastic `alpha` 0; phong `specular` 0
+/// and `shininess` 1, or the GGX lobe when `roughness` is given). Without `type`,
 /// the keys given override those of `mat` (from an MTL file, say): `diffuse`
 /// or `texture` make it diffuse, and keys of other types are an error.
 fn apply_material(
@@ -394,7 +404,7 @@ fn apply_material(
         None => {
             if let Some(k) = keys.iter().find(|k| !["diffuse", "texture"].contains(k)) {
                 return Err(fail(format!(
-                    "material.{k} needs a `type` (one of diffuse, mirror, glass, conductor, plastic)"
+                    "material.{k} needs a `type` (one of diffuse, mirror, glass, conductor, plastic, phong)"
                 )));
             }
             if over.diffuse.is_some() || texture.is_some() {
@@ -409,7 +419,7 @@ fn apply_material(
         Some(kind) => {
             let allowed = keys_of_type(kind).ok_or_else(|| {
                 fail(format!(
-                    "unknown material type `{kind}` (expected diffuse, mirror, glass, conductor or plastic)"
+                    "unknown material type `{kind}` (expected diffuse, mirror, glass, conductor, plastic or phong)"
                 ))
             })?;
             if let Some(k) = keys.iter().find(|k| !allowed.contains(k)) {
@@ -442,6 +452,24 @@ fn apply_material(
                     k: over.k.map_or(Vec3::ONE, |c| c.0),
                     microfacet: Microfacet::new(distribution, over.alpha.unwrap_or(0.1)),
                 }),
+                "phong" => {
+                    let lobe = match (over.shininess, over.roughness) {
+                        (Some(_), Some(_)) => {
+                            return Err(fail(
+                                "material.shininess (a Phong lobe) and material.roughness (a GGX lobe) exclude each other".into(),
+                            ));
+                        }
+                        (s, None) => Lobe::Phong {
+                            shininess: s.unwrap_or(1.0),
+                        },
+                        (None, Some(r)) => Lobe::Ggx { roughness: r },
+                    };
+                    Bsdf::Phong(Phong {
+                        diffuse: unit("diffuse", over.diffuse, 0.8)?,
+                        specular: unit("specular", over.specular, 0.0)?,
+                        lobe,
+                    })
+                }
                 _ => Bsdf::Plastic(
                     Plastic::with_options(
                         unit("diffuse", over.diffuse, 0.8)?,
