@@ -23,6 +23,7 @@
 use crate::bsdf::{Bsdf, Distribution, Lobe};
 use crate::error::{Error, Result};
 use crate::film::{self, Film, OutputOptions};
+use crate::integrator::{DirectStrategy, Roulette};
 use crate::math::Vec3;
 use crate::scene::{Material, Scene};
 use crate::texture::ImageTexture;
@@ -242,6 +243,12 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
         "\n[film]\nresolution = [{rw}, {rh}]\n\n[render]\nspp = {}\nmax_depth = {}\nlight_samples = {}\nseed = {}\nrr_depth = {}\n",
         r.spp, r.max_depth, r.light_samples, r.seed, r.rr_depth
     );
+    if r.direct != DirectStrategy::Mis {
+        let _ = writeln!(t, "direct = \"{}\"", r.direct);
+    }
+    if let Roulette::Fixed(p) = r.roulette {
+        let _ = writeln!(t, "rr = {}", num(p));
+    }
     // meshes: runs of consecutive triangles with one material
     let n = scene.triangle_count();
     let mut start = 0;

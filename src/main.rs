@@ -237,9 +237,9 @@ struct RenderArgs {
     /// Ray-query backend: embree or naive [embree when compiled in].
     #[arg(long)]
     accel: Option<Backend>,
-    /// Direct lighting: mis, light or bsdf.
-    #[arg(long, default_value = "mis")]
-    direct: DirectStrategy,
+    /// Direct lighting: mis, light or bsdf [scene default, else mis].
+    #[arg(long)]
+    direct: Option<DirectStrategy>,
     /// Estimator kernel: specialised (for the scene's effects, see
     /// `embertrace plan`) or general (every effect compiled in; same image).
     #[arg(long, default_value = "specialised")]
@@ -482,7 +482,8 @@ fn run_study(args: StudyArgs) -> Result<()> {
                 .unwrap_or(scene.render.light_samples)
                 .max(1),
             rr_depth: scene.render.rr_depth,
-            ..IntegratorSettings::default()
+            direct: scene.render.direct,
+            roulette: scene.render.roulette,
         },
         spp: args.spp.unwrap_or(scene.render.spp).max(1),
         seed: args.seed.unwrap_or(scene.render.seed),
@@ -603,6 +604,8 @@ fn run_bench(args: BenchArgs) -> Result<()> {
         let integrator = IntegratorSettings {
             max_depth: scene.render.max_depth,
             rr_depth: scene.render.rr_depth,
+            direct: scene.render.direct,
+            roulette: scene.render.roulette,
             ..IntegratorSettings::default()
         };
         let report = embertrace::effects_bench::run(&scene, &settings, integrator, &|line| {
@@ -797,8 +800,8 @@ fn run_render(args: RenderArgs) -> Result<()> {
             .light_samples
             .unwrap_or(scene.render.light_samples)
             .max(1),
-        direct: args.direct,
-        roulette: args.rr.map_or(Roulette::Throughput, Roulette::Fixed),
+        direct: args.direct.unwrap_or(scene.render.direct),
+        roulette: args.rr.map_or(scene.render.roulette, Roulette::Fixed),
         rr_depth: args.rr_depth.unwrap_or(scene.render.rr_depth),
     };
     let backend = args.accel.unwrap_or_else(Backend::default_backend);

@@ -331,6 +331,18 @@ fn cases() -> Vec<Case> {
             expect: vec!["s.toml:5", "velvet", "conductor"],
         },
         Case {
+            name: "an unknown direct-lighting strategy",
+            files: vec![("s.toml", "[render]\nspp = 4\ndirect = \"nee\"\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:3", "render.direct", "`nee`"],
+        },
+        Case {
+            name: "a roulette probability above 1",
+            files: vec![("s.toml", "[render]\nrr = 1.5\n".into())],
+            scene: "s.toml",
+            expect: vec!["s.toml:2", "render.rr = 1.5"],
+        },
+        Case {
             name: "a phong material with both lobes",
             files: vec![
                 ("m.obj", GOOD_OBJ.into()),

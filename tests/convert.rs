@@ -94,6 +94,9 @@ origin = [0.0, 2.0, 3.0]
 target = [0.0, 0.0, 0.0]
 aperture_radius = 0.05
 focus_distance = 3.2
+[render]
+direct = "light"
+rr = 0.8
 [[mesh]]
 file = "q.obj"
 material = { type = "plastic", diffuse = 0.5, alpha = 0.1, texture = "t.png" }

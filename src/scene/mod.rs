@@ -16,6 +16,7 @@ use crate::accel::{Hit, Sphere};
 use crate::bsdf::{Bsdf, Diffuse};
 use crate::camera::{Camera, ThinLens};
 use crate::error::{Error, Result};
+use crate::integrator::{DirectStrategy, Roulette};
 use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
 use crate::math::{Ray, SurfacePoint, Vec2, Vec3, triangle_normal};
 use crate::texture::ImageTexture;
@@ -104,7 +105,7 @@ pub struct CameraDesc {
 }
 
 /// Render settings a scene file may set; command-line flags override them.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RenderDefaults {
     /// Samples per pixel.
     pub spp: u32,
@@ -116,6 +117,10 @@ pub struct RenderDefaults {
     pub seed: u64,
     /// First bounce at which Russian roulette may end a path.
     pub rr_depth: u32,
+    /// Direct-lighting strategy (`--direct`).
+    pub direct: DirectStrategy,
+    /// Russian roulette policy (`--rr`).
+    pub roulette: Roulette,
 }
 
 impl Default for RenderDefaults {
@@ -126,6 +131,8 @@ impl Default for RenderDefaults {
             light_samples: 1,
             seed: 0,
             rr_depth: 3,
+            direct: DirectStrategy::Mis,
+            roulette: Roulette::Throughput,
         }
     }
 }

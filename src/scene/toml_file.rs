@@ -18,6 +18,9 @@
 //! light_samples = 1
 //! seed = 0
 //! rr_depth = 3                # first bounce Russian roulette may end
+//! direct = "mis"              # direct lighting: mis, light or bsdf
+//! rr = 0.7                    # fixed continuation probability (1 = no
+//!                             # roulette); throughput-based if absent
 //!
 //! [[mesh]]
 //! file = "cornell-box.obj"    # relative to the scene file
@@ -41,6 +44,7 @@ use crate::bsdf::{
 };
 use crate::camera::ThinLens;
 use crate::error::{Error, Result};
+use crate::integrator::Roulette;
 use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
 use crate::math::Vec3;
 use crate::texture::ImageTexture;
@@ -122,6 +126,8 @@ struct RenderToml {
     light_samples: Option<Spanned<u64>>,
     seed: Option<u64>,
     rr_depth: Option<Spanned<u64>>,
+    direct: Option<Spanned<String>>,
+    rr: Option<Spanned<f32>>,
 }
 
 #[derive(Deserialize)]
@@ -823,6 +829,24 @@ pub fn load(path: &Path) -> Result<Scene> {
         render.seed = r.seed.unwrap_or(render.seed);
         if let Some(v) = &r.rr_depth {
             render.rr_depth = check_spanned(path, &text, v, limits::check_max_depth)? as u32;
+        }
+        let at = |span: std::ops::Range<usize>| Some(line_of(&text, span.start));
+        if let Some(v) = &r.direct {
+            render.direct = v
+                .get_ref()
+                .parse()
+                .map_err(|m| Error::input(path, at(v.span()), format!("render.direct: {m}")))?;
+        }
+        if let Some(v) = &r.rr {
+            let p = *v.get_ref();
+            if !(0.0..=1.0).contains(&p) {
+                return Err(Error::input(
+                    path,
+                    at(v.span()),
+                    format!("render.rr = {p}: expected a continuation probability in [0, 1]"),
+                ));
+            }
+            render.roulette = Roulette::Fixed(p);
         }
     }
     scene.render = render;
