@@ -161,3 +161,25 @@ fn mitsuba_and_ply_scenes_round_trip_to_the_same_bits() {
         round_trip(&data.join(name));
     }
 }
+
+#[test]
+fn cse_test_scenes_round_trip_to_the_same_bits() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/cse");
+    round_trip(&data.join("cornell.test"));
+    // the raytracer's dialect: point and directional lights with the
+    // course's attenuation, ambient as emission, an ellipsoid with smooth
+    // normals, and per-vertex normals
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("rt.test");
+    std::fs::write(
+        &path,
+        "size 32 24\ncamera 0 1 4  0 0 0  0 1 0  45\nattenuation 1 0.2 0.05\npoint 1 3 2  1 0.9 0.8\n\
+         directional 0 1 1  0.2 0.2 0.3\nambient 0.05 0.05 0.05\ndiffuse 0.4 0.4 0.4\n\
+         specular 0.3 0.3 0.3\nshininess 40\nvertex -2 0 -2\nvertex 2 0 -2\nvertex 2 0 2\n\
+         vertex -2 0 2\ntri 0 2 1\ntri 0 3 2\nvertexnormal 0 1 0  0 1 0.2\nvertexnormal 1 1 0  0.2 1 0\n\
+         vertexnormal 0 1 1  0 1 0\ntrinormal 0 2 1\npushTransform\ntranslate 0 0.6 0\n\
+         scale 1 0.5 1\nsphere 0 0 0 1\npopTransform\n",
+    )
+    .unwrap();
+    round_trip(&path);
+}

@@ -1,10 +1,11 @@
 //! A bounded, deterministic mutation fuzzer for every scene loader (issue 4
 //! item 5, hard case 28): the TOML scene, the OBJ mesh (through tobj), its
 //! MTL library, the `[[procedural]]` source, PLY meshes (ASCII and both
-//! binary byte orders) and Mitsuba 3 XML scenes. Each input is a bundled or
-//! hand-written seed file with one to four random mutations (byte changes,
-//! hostile tokens such as `nan`, `1e30`, `4294967296`, huge indices or
-//! counts, deleted or repeated ranges, truncation; invalid UTF-8 included).
+//! binary byte orders), Mitsuba 3 XML scenes and CSE 167/168 `.test` scenes.
+//! Each input is a bundled or hand-written seed file with one to four random
+//! mutations (byte changes, hostile tokens such as `nan`, `1e30`,
+//! `4294967296`, huge indices or counts, deleted or repeated ranges,
+//! truncation; invalid UTF-8 included).
 //!
 //! Every load must return (no panic), within a time bound (no hang: each
 //! load runs on its own thread and the test fails if it has not answered in
@@ -577,6 +578,25 @@ const MITSUBA: &str = r#"<scene version="3.0.0">
         <bsdf type="roughconductor"><string name="distribution" value="ggx"/><rgb name="eta" value="0.2"/><rgb name="k" value="3"/></bsdf></shape>
 </scene>
 "#;
+
+#[test]
+fn fuzz_cse_test() {
+    let cornell = include_str!("data/cse/cornell.test");
+    let raytracer = "size 64 48\ncamera 0 0 4 0 0 0 0 1 0 45\nmaxdepth 3\nattenuation 1 0.1 0\n\
+        point 1 2 3 1 1 1\ndirectional 0 1 1 0.5 0.5 0.5\nambient 0.1 0.1 0.1\nmaxverts 4\n\
+        maxvertnorms 3\nvertexnormal 0 0 0 0 0 1\nvertexnormal 1 0 0 0 0 1\nvertexnormal 0 1 0 0 1 1\n\
+        trinormal 0 1 2\nvertex -1 -1 0\nvertex 1 -1 0\nvertex 1 1 0\nvertex -1 1 0\n\
+        diffuse 0.5 0.2 0.1\nspecular 0.3 0.3 0.3\nshininess 20\nemission 0 0 0\n\
+        pushTransform\nrotate 0 0 1 45\nscale 1 2 1\ntri 0 1 2\nsphere 0 0 -1 0.5\npopTransform\n\
+        translate 0 0 -2\ntri 0 2 3\nsphere 1 1 1 0.25\noutput x.png\ngamma 2.2\n";
+    fuzz(
+        "cse-test",
+        &[("scene.test", "")],
+        "scene.test",
+        &[cornell.as_bytes(), raytracer.as_bytes()],
+        "scene.test",
+    );
+}
 
 #[test]
 fn fuzz_mitsuba_xml() {

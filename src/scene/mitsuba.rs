@@ -66,9 +66,6 @@ use std::sync::Arc;
 /// Triangles of a tessellated `disk`.
 pub const DISK_SEGMENTS: usize = 256;
 
-/// The largest scene file read (the XML tree is held in memory).
-const MAX_FILE_BYTES: u64 = 256 << 20;
-
 /// Indices of refraction by Mitsuba's names (Mitsuba 3 documentation,
 /// "Dielectric" plugin, table of named indices).
 const NAMED_IOR: [(&str, f32); 23] = [
@@ -137,21 +134,7 @@ struct Loader<'a, 'i> {
 
 /// Load a Mitsuba 3 scene file.
 pub fn load(path: &Path) -> Result<Scene> {
-    let size = std::fs::metadata(path)
-        .map_err(|e| Error::io(path, e))?
-        .len();
-    if size > MAX_FILE_BYTES {
-        return Err(Error::input(
-            path,
-            None,
-            format!("{size} bytes: larger than the {MAX_FILE_BYTES} bytes a scene file may have"),
-        ));
-    }
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let text = String::from_utf8(bytes).map_err(|e| {
-        let line = bytes_line(e.as_bytes(), e.utf8_error().valid_up_to());
-        Error::input(path, Some(line), "not UTF-8 text")
-    })?;
+    let text = super::read_scene_text(path)?;
     let options = roxmltree::ParsingOptions {
         allow_dtd: false,
         nodes_limit: 10_000_000,
@@ -175,10 +158,6 @@ pub fn load(path: &Path) -> Result<Scene> {
         doc: &doc,
     };
     loader.scene()
-}
-
-fn bytes_line(bytes: &[u8], offset: usize) -> usize {
-    bytes[..offset].iter().filter(|&&b| b == b'\n').count() + 1
 }
 
 impl<'a, 'i> Loader<'a, 'i> {

@@ -5,6 +5,7 @@
 //! every backend sees the same triangles, and where the scene-wide limits of
 //! [`limits`] are enforced.
 
+mod cse;
 pub mod limits;
 mod mitsuba;
 mod obj;
@@ -202,9 +203,9 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Load a scene by extension: `.toml` (scene file), or `.obj` or `.ply`
+    /// Load a scene by extension: `.toml` (scene file), `.obj` or `.ply`
     /// (a bare mesh, framed automatically; lit by a white environment if it
-    /// has no emitters).
+    /// has no emitters), `.xml` (Mitsuba 3) or `.test` (CSE 167/168).
     pub fn load(path: &Path) -> Result<Scene> {
         let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
         if meta.is_dir() {
@@ -224,11 +225,12 @@ impl Scene {
             "obj" => obj::load_bare(path),
             "ply" => bare_scene(path, load_ply_mesh(path)?),
             "xml" => mitsuba::load(path),
+            "test" => cse::load(path),
             _ => Err(Error::input(
                 path,
                 None,
                 format!(
-                    "unknown scene format `.{ext}` (expected .toml, .obj, .ply or Mitsuba 3 .xml)"
+                    "unknown scene format `.{ext}` (expected .toml, .obj, .ply, Mitsuba 3 .xml or CSE 167/168 .test)"
                 ),
             )),
         }
@@ -371,6 +373,33 @@ impl Scene {
             fov_y,
         }
     }
+}
+
+/// The largest scene file read whole (an XML tree or a `.test` file's
+/// lines are held in memory).
+pub const MAX_SCENE_FILE_BYTES: u64 = 256 << 20;
+
+/// A text scene file, read whole: refused beyond [`MAX_SCENE_FILE_BYTES`],
+/// and with the line of the first byte that is not UTF-8.
+fn read_scene_text(path: &Path) -> Result<String> {
+    let size = std::fs::metadata(path)
+        .map_err(|e| Error::io(path, e))?
+        .len();
+    if size > MAX_SCENE_FILE_BYTES {
+        return Err(Error::input(
+            path,
+            None,
+            format!(
+                "{size} bytes: larger than the {MAX_SCENE_FILE_BYTES} bytes a scene file may have"
+            ),
+        ));
+    }
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    String::from_utf8(bytes).map_err(|e| {
+        let bytes = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        let line = bytes.iter().filter(|&&b| b == b'\n').count() + 1;
+        Error::input(path, Some(line), "not UTF-8 text")
+    })
 }
 
 /// A bare mesh file as a scene: the mesh placed as it is, the camera framed
