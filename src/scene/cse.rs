@@ -674,7 +674,8 @@ pub fn load(path: &Path) -> Result<Scene> {
             bsdf,
             texture: None,
             emission,
-            two_sided: true,
+            // the courses add emission whichever side is seen
+            two_sided: emission != Vec3::ZERO,
         });
     }
     if let Some(line) = ignored_ambient {
