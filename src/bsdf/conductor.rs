@@ -25,7 +25,7 @@
 use super::fresnel::{fr_conductor, reflect};
 use super::microfacet::Microfacet;
 use super::mirror::specular_reflection;
-use super::{BsdfSample, Bxdf};
+use super::{BsdfSample, Bxdf, sample_at};
 use crate::math::{Vec2, Vec3};
 
 /// A rough (or smooth) conductor.
@@ -111,18 +111,7 @@ impl Bxdf for Conductor {
             return specular_reflection(wo, self.fresnel(wo.z), 1.0);
         }
         let h = self.microfacet.sample_visible(wo, u)?;
-        let wi = reflect(wo, h);
-        if !(wi.z > 0.0) {
-            return None;
-        }
-        // evaluate at the returned wi so that pdf and f agree with pdf()/eval()
-        BsdfSample {
-            wi,
-            f: self.eval(wo, wi),
-            pdf: self.pdf(wo, wi),
-            delta: false,
-        }
-        .checked()
+        sample_at(self, wo, reflect(wo, h))
     }
 
     fn is_delta(&self) -> bool {

@@ -91,6 +91,36 @@ impl BsdfSample {
     }
 }
 
+/// The sample of `b` at `wi` for `wo`: `f` and `pdf` evaluated there, so
+/// that they agree with [`Bxdf::eval`] and [`Bxdf::pdf`] bit for bit;
+/// `None` below the horizon or where the sample is degenerate.
+pub(crate) fn sample_at(b: &impl Bxdf, wo: Vec3, wi: Vec3) -> Option<BsdfSample> {
+    if !(wi.z > 0.0) {
+        return None;
+    }
+    BsdfSample {
+        wi,
+        f: b.eval(wo, wi),
+        pdf: b.pdf(wo, wi),
+        delta: false,
+    }
+    .checked()
+}
+
+/// Choose between two lobes with the first random number: the first with
+/// probability `p`. Returns the choice and the random numbers with the
+/// first rescaled to `[0, 1)` within it, so each lobe sees uniform numbers.
+pub(crate) fn choose_lobe(u: Vec2, p: f32) -> (bool, Vec2) {
+    // the largest f32 below 1
+    const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+    if u.x < p {
+        (true, Vec2::new((u.x / p).min(ONE_MINUS_EPSILON), u.y))
+    } else {
+        let x = ((u.x - p) / (1.0 - p)).min(ONE_MINUS_EPSILON);
+        (false, Vec2::new(x, u.y))
+    }
+}
+
 /// The interface every BSDF implements (see the module docs for the
 /// conventions).
 pub trait Bxdf {

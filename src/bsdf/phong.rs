@@ -29,7 +29,7 @@
 //! = [r, g, b], shininess = 30 }` or, for the GGX lobe, `roughness = 0.2`
 //! in place of `shininess`.
 
-use super::{BsdfSample, Bxdf, Microfacet, fresnel::reflect};
+use super::{BsdfSample, Bxdf, Microfacet, choose_lobe, fresnel::reflect, sample_at};
 use crate::math::{Frame, Vec2, Vec3};
 use crate::sampling::{square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf};
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -215,24 +215,11 @@ impl Bxdf for Phong {
         if !(wo.z > 0.0) {
             return None;
         }
-        let t = self.lobe_probability();
-        let wi = if u.x < t {
-            let u = Vec2::new((u.x / t).min(ONE_MINUS_EPSILON), u.y);
-            self.sample_lobe(wo, u)?
-        } else {
-            let u = Vec2::new(((u.x - t) / (1.0 - t)).min(ONE_MINUS_EPSILON), u.y);
-            square_to_cosine_hemisphere(u)
+        let wi = match choose_lobe(u, self.lobe_probability()) {
+            (true, u) => self.sample_lobe(wo, u)?,
+            (false, u) => square_to_cosine_hemisphere(u),
         };
-        if !(wi.z > 0.0) {
-            return None;
-        }
-        BsdfSample {
-            wi,
-            f: self.eval(wo, wi),
-            pdf: self.pdf(wo, wi),
-            delta: false,
-        }
-        .checked()
+        sample_at(self, wo, wi)
     }
 
     fn is_delta(&self) -> bool {
@@ -243,9 +230,6 @@ impl Bxdf for Phong {
         false
     }
 }
-
-/// The largest `f32` below 1.
-const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 #[cfg(test)]
 mod tests {

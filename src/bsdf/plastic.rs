@@ -60,7 +60,7 @@
 use super::fresnel::{fr_dielectric, reflect};
 use super::microfacet::{Distribution, Microfacet};
 use super::mirror::specular_reflection;
-use super::{BsdfSample, Bxdf};
+use super::{BsdfSample, Bxdf, choose_lobe, sample_at};
 use crate::math::{Vec2, Vec3};
 use crate::sampling::{square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf};
 use std::f32::consts::PI;
@@ -299,29 +299,16 @@ impl Bxdf for Plastic {
             return None;
         }
         let ps = self.coat_probability(wo);
-        let wi = if u.x < ps {
+        let wi = match choose_lobe(u, ps) {
             // --- the coat ---
-            if self.microfacet.is_smooth() {
+            (true, _) if self.microfacet.is_smooth() => {
                 return specular_reflection(wo, Vec3::splat(fr_dielectric(wo.z, self.ior)), ps);
             }
-            let u = Vec2::new((u.x / ps).min(ONE_MINUS_EPSILON), u.y);
-            let h = self.microfacet.sample_visible(wo, u)?;
-            reflect(wo, h)
-        } else {
+            (true, u) => reflect(wo, self.microfacet.sample_visible(wo, u)?),
             // --- the base ---
-            let u = Vec2::new(((u.x - ps) / (1.0 - ps)).min(ONE_MINUS_EPSILON), u.y);
-            square_to_cosine_hemisphere(u)
+            (false, u) => square_to_cosine_hemisphere(u),
         };
-        if !(wi.z > 0.0) {
-            return None;
-        }
-        BsdfSample {
-            wi,
-            f: self.eval(wo, wi),
-            pdf: self.pdf(wo, wi),
-            delta: false,
-        }
-        .checked()
+        sample_at(self, wo, wi)
     }
 
     fn is_delta(&self) -> bool {
@@ -332,9 +319,6 @@ impl Bxdf for Plastic {
         self.microfacet.is_smooth()
     }
 }
-
-/// The largest `f32` below 1.
-const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 #[cfg(test)]
 mod tests {
