@@ -160,6 +160,12 @@ impl WatertightRay {
         let det = u + v + w;
         // det != 0 and not NaN: exactly degenerate triangles are never hit
         let mut keep = !(any_neg & any_pos) & (det.cmplt(zero) | det.cmpgt(zero));
+        // most leaf tests end here: no lane is inside its triangle, so the
+        // distance and its error bound need not be computed (the lanes that
+        // go on get exactly the arithmetic they got before)
+        if keep.bitmask() & lanes == 0 {
+            return Hits4::MISS;
+        }
         let az = sz * a.2;
         let bz = sz * b.2;
         let cz = sz * c.2;
@@ -256,6 +262,14 @@ pub struct Hits4 {
 }
 
 impl Hits4 {
+    /// No lane hit.
+    pub const MISS: Hits4 = Hits4 {
+        mask: 0,
+        t: [0.0; 4],
+        u: [0.0; 4],
+        v: [0.0; 4],
+    };
+
     /// Lane `l` as a hit (with `prim = 0`), if it hit.
     #[inline]
     pub fn hit(&self, l: usize) -> Option<Hit> {
