@@ -111,7 +111,7 @@ impl WatertightRay {
     /// routine gives that triangle alone: the same `f32` operations in the
     /// same order, lane by lane (vector instructions are IEEE-exact per
     /// lane, and nothing is contracted into fused multiply-adds).
-    #[inline]
+    #[inline(always)]
     pub fn intersect4(&self, block: &Tri4, lanes: u32, t_max: f32) -> Hits4 {
         let (kx, ky, kz) = (self.kx, self.ky, self.kz);
         let o = self.o.to_array();
