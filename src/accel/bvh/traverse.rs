@@ -13,8 +13,9 @@
 //! - the near and far planes of each axis are chosen by the sign of the
 //!   direction, so `1 / 0 = +-inf` needs no special case;
 //! - `0 * inf = NaN` (a ray parallel to a slab with its origin on a plane)
-//!   must impose no constraint: the running maxima and minima are written
-//!   `if t > t0 { t } else { t0 }`, which keeps `t0` when `t` is NaN;
+//!   must impose no constraint: the running maxima and minima are
+//!   `if t > t0 { t } else { t0 }`, which keeps `t0` when `t` is NaN (SSE's
+//!   `maxps` and `minps`, see [`nan_keeps_max`]);
 //! - the far distance is enlarged by `1 + 2 gamma(4)` (pbrt-v4 uses
 //!   `gamma(3)`; one more covers the leaf test's rounding of `t`, below):
 //!   rounding can neither cull a box the ray touches nor a box whose entry
@@ -122,15 +123,36 @@ impl SlabRay {
         for (a, tn) in tn.iter_mut().enumerate() {
             *tn = (Vec4::from(node.planes[self.near[a]]) - self.o_near[a]) * self.inv[a];
             let tf = (Vec4::from(node.planes[self.far[a]]) - self.o_far[a]) * self.inv[a];
-            // NaN (0 * inf) leaves the bound unchanged: a NaN comparison is
-            // false, so the select keeps the running value
-            t0 = Vec4::select(tn.cmpgt(t0), *tn, t0);
-            t1 = Vec4::select(tf.cmplt(t1), tf, t1);
+            (t0, t1) = (nan_keeps_max(*tn, t0), nan_keeps_min(tf, t1));
         }
         let key = tn[self.kz];
         let enter = t0.cmple(t1 * Vec4::splat(WIDEN));
         let mask = (enter & key.cmple(Vec4::splat(t_max * WIDEN))).bitmask();
         (t0.to_array(), key.to_array(), mask)
+    }
+}
+
+/// `max(a, b)` that returns `b` when `a` is NaN (0 * inf: a ray parallel
+/// to a slab with its origin on a plane), so such an axis imposes no
+/// constraint on the running bound `b`, which is never NaN. On x86 this is
+/// SSE's `maxps` (`a > b ? a : b`), which glam's `max` is; elsewhere a
+/// select, as glam's other backends may propagate NaN.
+#[inline(always)]
+fn nan_keeps_max(a: Vec4, b: Vec4) -> Vec4 {
+    if cfg!(any(target_arch = "x86", target_arch = "x86_64")) {
+        a.max(b)
+    } else {
+        Vec4::select(a.cmpgt(b), a, b)
+    }
+}
+
+/// `min(a, b)` that returns `b` when `a` is NaN; see [`nan_keeps_max`].
+#[inline(always)]
+fn nan_keeps_min(a: Vec4, b: Vec4) -> Vec4 {
+    if cfg!(any(target_arch = "x86", target_arch = "x86_64")) {
+        a.min(b)
+    } else {
+        Vec4::select(a.cmplt(b), a, b)
     }
 }
 
@@ -362,6 +384,19 @@ mod tests {
         let (hit, t, key) = unit_cube(r);
         let s = 1.25f32.sqrt();
         assert!(hit && (t - 2.0 * s).abs() < 1e-5 && (key - s).abs() < 1e-5);
+    }
+
+    #[test]
+    fn a_nan_lane_leaves_the_running_bound_alone() {
+        let a = Vec4::new(f32::NAN, 2.0, -1.0, 0.0);
+        let b = Vec4::new(1.0, 1.0, 1.0, -0.0);
+        let (hi, lo) = (nan_keeps_max(a, b), nan_keeps_min(a, b));
+        assert_eq!(hi.to_array(), [1.0, 2.0, 1.0, -0.0]);
+        assert_eq!(lo.to_array(), [1.0, 1.0, -1.0, -0.0]);
+        assert!(
+            hi.w.is_sign_negative() && lo.w.is_sign_negative(),
+            "ties keep b"
+        );
     }
 
     #[test]
