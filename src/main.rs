@@ -100,7 +100,8 @@ struct StudyArgs {
     /// Maximum bounces [scene default].
     #[arg(short = 'm', long = "max-depth")]
     max_depth: Option<u32>,
-    /// Light samples per shading point [scene default].
+    /// Light samples per shading point (per area light for a CS184 .dae)
+    /// [scene default].
     #[arg(short = 'l', long = "light-samples")]
     light_samples: Option<u32>,
     /// Resolution: width height [scene default].
@@ -215,7 +216,8 @@ struct RenderArgs {
     /// Samples per pixel [scene default, else 64].
     #[arg(short = 's', long = "spp")]
     spp: Option<u32>,
-    /// Light samples per shading point [scene default, else 1].
+    /// Light samples per shading point; for a CS184 .dae scene, samples per
+    /// area light as the course counts them [scene default, else 1].
     #[arg(short = 'l', long = "light-samples")]
     light_samples: Option<u32>,
     /// Maximum bounces: 0 = emission only, 1 = direct only [scene default, else 64].
@@ -349,6 +351,14 @@ const SUBCOMMANDS: &[&str] = &[
 ];
 
 /// `embertrace plan`.
+/// Light samples per shading point for `-l` (see
+/// [`RenderDefaults::light_samples_for`]), checked against the limit.
+fn light_samples(scene: &Scene, l: Option<u32>) -> Result<u32> {
+    let n = scene.render.light_samples_for(l);
+    limits::check_light_samples(n).map_err(|m| Error::Settings(format!("-l: {m}")))?;
+    Ok(n as u32)
+}
+
 fn run_plan(args: PlanArgs) -> Result<()> {
     let scene = Scene::load(&args.scene)?;
     if let Some(m) = args.max_depth {
@@ -477,10 +487,7 @@ fn run_study(args: StudyArgs) -> Result<()> {
     let base = RunSettings {
         integrator: IntegratorSettings {
             max_depth: args.max_depth.unwrap_or(scene.render.max_depth),
-            light_samples: args
-                .light_samples
-                .unwrap_or(scene.render.light_samples)
-                .max(1),
+            light_samples: light_samples(&scene, args.light_samples)?,
             rr_depth: scene.render.rr_depth,
             direct: scene.render.direct,
             roulette: scene.render.roulette,
@@ -790,16 +797,10 @@ fn run_render(args: RenderArgs) -> Result<()> {
     if let Some(m) = args.max_depth {
         flag("-m", limits::check_max_depth(m as u64))?;
     }
-    if let Some(l) = args.light_samples {
-        flag("-l", limits::check_light_samples(l.max(1) as u64))?;
-    }
     let seed = args.seed.unwrap_or(scene.render.seed);
     let integrator = IntegratorSettings {
         max_depth: args.max_depth.unwrap_or(scene.render.max_depth),
-        light_samples: args
-            .light_samples
-            .unwrap_or(scene.render.light_samples)
-            .max(1),
+        light_samples: light_samples(&scene, args.light_samples)?,
         direct: args.direct.unwrap_or(scene.render.direct),
         roulette: args.rr.map_or(scene.render.roulette, Roulette::Fixed),
         rr_depth: args.rr_depth.unwrap_or(scene.render.rr_depth),

@@ -5,6 +5,7 @@
 //! every backend sees the same triangles, and where the scene-wide limits of
 //! [`limits`] are enforced.
 
+mod collada;
 mod cse;
 pub mod limits;
 mod mitsuba;
@@ -122,6 +123,35 @@ pub struct RenderDefaults {
     pub direct: DirectStrategy,
     /// Russian roulette policy (`--rr`).
     pub roulette: Roulette,
+    /// Set for scenes whose own renderer counts `-l` per light (CS184's
+    /// `.dae`): see [`RenderDefaults::light_samples_for`].
+    pub per_light: Option<LightCount>,
+}
+
+/// The lights a per-light `-l` loops over, as the CS184 course's
+/// direct-lighting estimator does: `l` samples from each non-delta light
+/// (area or ambient) and one from each delta light (point, directional).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LightCount {
+    /// Lights sampled `l` times each.
+    pub sampled: u32,
+    /// Lights sampled once each.
+    pub delta: u32,
+}
+
+impl RenderDefaults {
+    /// Light samples per shading point for a `-l` value (`None`: the
+    /// scene's own). Per shading point unless the scene counts per light;
+    /// then `-l l` gives the course's total, `l * sampled + delta`, which
+    /// this renderer spends on lights chosen by power (with one area light,
+    /// exactly the course's estimator).
+    pub fn light_samples_for(&self, l: Option<u32>) -> u64 {
+        match (l, self.per_light) {
+            (None, _) => self.light_samples as u64,
+            (Some(l), None) => l.max(1) as u64,
+            (Some(l), Some(c)) => (l.max(1) as u64 * c.sampled as u64 + c.delta as u64).max(1),
+        }
+    }
 }
 
 impl Default for RenderDefaults {
@@ -134,6 +164,7 @@ impl Default for RenderDefaults {
             rr_depth: 3,
             direct: DirectStrategy::Mis,
             roulette: Roulette::Throughput,
+            per_light: None,
         }
     }
 }
@@ -190,6 +221,11 @@ pub struct Scene {
     pub camera: CameraDesc,
     /// The camera's lens (a pinhole unless the scene sets an aperture).
     pub lens: ThinLens,
+    /// A focal length in pixels that the field of view follows (CS184's
+    /// camera): when set, an image `h` pixels high sees a vertical field of
+    /// `2 atan(h / (2 f))`, and `camera.fov_y` holds the one at
+    /// `resolution`.
+    pub focal_pixels: Option<f32>,
     /// Image width and height.
     pub resolution: [u32; 2],
     /// Render defaults from the file.
@@ -205,7 +241,8 @@ pub struct Scene {
 impl Scene {
     /// Load a scene by extension: `.toml` (scene file), `.obj` or `.ply`
     /// (a bare mesh, framed automatically; lit by a white environment if it
-    /// has no emitters), `.xml` (Mitsuba 3) or `.test` (CSE 167/168).
+    /// has no emitters), `.xml` (Mitsuba 3), `.dae` (CS184 COLLADA) or
+    /// `.test` (CSE 167/168).
     pub fn load(path: &Path) -> Result<Scene> {
         let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
         if meta.is_dir() {
@@ -226,11 +263,12 @@ impl Scene {
             "ply" => bare_scene(path, load_ply_mesh(path)?),
             "xml" => mitsuba::load(path),
             "test" => cse::load(path),
+            "dae" => collada::load(path),
             _ => Err(Error::input(
                 path,
                 None,
                 format!(
-                    "unknown scene format `.{ext}` (expected .toml, .obj, .ply, Mitsuba 3 .xml or CSE 167/168 .test)"
+                    "unknown scene format `.{ext}` (expected .toml, .obj, .ply, Mitsuba 3 .xml, CS184 .dae or CSE 167/168 .test)"
                 ),
             )),
         }
@@ -323,7 +361,11 @@ impl Scene {
 
     /// The camera for a `width` x `height` image, with the scene's lens.
     pub fn make_camera(&self, width: u32, height: u32) -> Camera {
-        Camera::with_lens(&self.camera, width, height, self.lens)
+        let mut desc = self.camera;
+        if let Some(f) = self.focal_pixels {
+            desc.fov_y = 2.0 * (height as f32 / (2.0 * f)).atan().to_degrees();
+        }
+        Camera::with_lens(&desc, width, height, self.lens)
     }
 
     /// Axis-aligned bounds of all vertices used by triangles and of all
@@ -566,6 +608,7 @@ impl SceneBuilder {
                 directional_lights: Vec::new(),
                 camera: Scene::framing_camera(&Bounds::empty()),
                 lens: ThinLens::PINHOLE,
+                focal_pixels: None,
                 resolution: [512, 512],
                 render: RenderDefaults::default(),
                 notes: Vec::new(),
