@@ -231,7 +231,14 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
     let _ = writeln!(t, "origin = {}", rgb(c.origin));
     let _ = writeln!(t, "target = {}", rgb(c.target));
     let _ = writeln!(t, "up = {}", rgb(c.up));
-    let _ = writeln!(t, "fov_y = {}", num(c.fov_y));
+    match scene.focal_pixels {
+        Some(f) => {
+            let _ = writeln!(t, "focal_pixels = {}", num(f));
+        }
+        None => {
+            let _ = writeln!(t, "fov_y = {}", num(c.fov_y));
+        }
+    }
     if !scene.lens.is_pinhole() {
         let _ = writeln!(t, "aperture_radius = {}", num(scene.lens.aperture_radius));
         let _ = writeln!(t, "focus_distance = {}", num(scene.lens.focus_distance));

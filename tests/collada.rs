@@ -348,3 +348,53 @@ fn course_scenes_render() {
         );
     }
 }
+
+#[test]
+fn the_project_room_loads_with_its_materials_and_lights() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/collada/room.dae");
+    let s = Scene::load(&path).unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    // shell (two quads), red wall (two triangles), area light (two)
+    assert_eq!(s.triangle_count(), 8);
+    assert_eq!(s.spheres.len(), 2);
+    let albedos: Vec<_> = (0..8).filter_map(|t| s.material(t).albedo()).collect();
+    assert!(
+        albedos.contains(&Vec3::new(0.6, 0.1, 0.1)),
+        "the CGL diffuse"
+    );
+    assert!(albedos.contains(&Vec3::splat(0.7)), "the lambert colour");
+    let count = LightCount {
+        sampled: 1,
+        delta: 1,
+    };
+    assert_eq!(s.render.per_light, Some(count));
+    // the course's 800 x 600 window fixes a focal length in pixels from
+    // xfov 49.13434 and aspect 1.333333: f = 400 / tan(xfov / 2)
+    let f = s.focal_pixels.unwrap();
+    let want = 400.0 / (49.13434f32 / 2.0).to_radians().tan();
+    assert!((f - want).abs() < 1e-3 * want, "{f} vs {want}");
+    let fov_600 = 2.0 * (300.0 / f).atan().to_degrees();
+    assert!((s.camera.fov_y - fov_600).abs() < 1e-4);
+}
+
+#[test]
+fn a_toml_focal_length_must_be_positive() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.toml");
+    let scene = |f: &str| {
+        format!(
+            "[camera]\norigin = [0, 0, 4]\ntarget = [0, 0, 0]\nfocal_pixels = {f}\n\n\
+             [film]\nresolution = [64, 48]\n"
+        )
+    };
+    std::fs::write(&path, scene("60.0")).unwrap();
+    let s = Scene::load(&path).unwrap();
+    assert_eq!(s.focal_pixels, Some(60.0));
+    assert!((s.camera.fov_y - 2.0 * (24.0f32 / 60.0).atan().to_degrees()).abs() < 1e-4);
+    for bad in ["0.0", "-3.0", "nan"] {
+        std::fs::write(&path, scene(bad)).unwrap();
+        let e = Scene::load(&path).unwrap_err().to_string();
+        assert!(e.contains("s.toml") && e.contains("focal_pixels"), "{e}");
+        assert!(!e.contains('\n'), "{e}");
+    }
+}

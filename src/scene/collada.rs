@@ -17,7 +17,9 @@
 //!   are read past.
 //! - **Spheres**: the CGL `<extra>` `<sphere><radius>`, centred at the node's
 //!   origin, scaled by the length of its transformed x axis.
-//! - **Materials**: the CGL extras `emission` (`radiance`), `mirror`
+//! - **Materials**: the CGL extras `emission` (`radiance`), `diffuse`
+//!   (`reflectance` or `albedo`; not read by the course, which takes
+//!   diffuse colours from `profile_COMMON`), `mirror`
 //!   (`reflectance`), `glass` (`transmittance`, `reflectance`, `ior`;
 //!   `roughness` ignored as by the course), `refraction` and `microfacet`
 //!   (Beckmann, `alpha`, `eta`, `k`); else `profile_COMMON`'s
@@ -436,6 +438,20 @@ impl<'a, 'i> Loader<'a, 'i> {
                         mat.emission = self.colour(self.need(b, "radiance")?)?;
                         mat.two_sided = true;
                         Bsdf::Diffuse(Diffuse { albedo: Vec3::ZERO })
+                    }
+                    // not in the course's loader (its diffuse comes from
+                    // profile_COMMON), but named by CGL-profile files
+                    // written for it: `reflectance`, or `albedo`
+                    "diffuse" => {
+                        let c = self
+                            .element(b, "reflectance")
+                            .or_else(|| self.element(b, "albedo"))
+                            .ok_or_else(|| {
+                                self.fail(b, "<diffuse> needs a <reflectance> or <albedo>")
+                            })?;
+                        Bsdf::Diffuse(Diffuse {
+                            albedo: self.colour(c)?,
+                        })
                     }
                     "mirror" => Bsdf::Mirror(Mirror {
                         reflectance: self.colour(self.need(b, "reflectance")?)?,
@@ -899,11 +915,10 @@ impl<'a, 'i> Loader<'a, 'i> {
         let ambient = self.ambient;
         let mut scene = self.builder.build();
         scene.camera = camera;
-        scene.focal_pixels = focal;
-        if let Some(f) = focal {
-            scene.camera.fov_y = 2.0 * (WINDOW[1] as f32 / (2.0 * f)).atan().to_degrees();
-        }
         scene.resolution = WINDOW;
+        if let Some(f) = focal {
+            scene.set_focal_pixels(f);
+        }
         // the course's defaults: 1 sample, 1 bounce, 1 sample per area light
         scene.render.spp = 1;
         scene.render.max_depth = 1;

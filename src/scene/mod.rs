@@ -106,6 +106,12 @@ pub struct CameraDesc {
     pub fov_y: f32,
 }
 
+/// The vertical field of view, in degrees, of a focal length of `f` pixels
+/// on an image `height` pixels high.
+fn fov_for_focal(f: f32, height: u32) -> f32 {
+    2.0 * (height as f32 / (2.0 * f)).atan().to_degrees()
+}
+
 /// Render settings a scene file may set; command-line flags override them.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RenderDefaults {
@@ -363,9 +369,17 @@ impl Scene {
     pub fn make_camera(&self, width: u32, height: u32) -> Camera {
         let mut desc = self.camera;
         if let Some(f) = self.focal_pixels {
-            desc.fov_y = 2.0 * (height as f32 / (2.0 * f)).atan().to_degrees();
+            desc.fov_y = fov_for_focal(f, height);
         }
         Camera::with_lens(&desc, width, height, self.lens)
+    }
+
+    /// Give the camera a focal length of `f` pixels: the field of view then
+    /// follows the image height, and `camera.fov_y` is the one at the
+    /// scene's own resolution.
+    pub fn set_focal_pixels(&mut self, f: f32) {
+        self.focal_pixels = Some(f);
+        self.camera.fov_y = fov_for_focal(f, self.resolution[1]);
     }
 
     /// Axis-aligned bounds of all vertices used by triangles and of all

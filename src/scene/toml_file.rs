@@ -8,6 +8,8 @@
 //! target = [0.0, 1.0, 0.0]
 //! up     = [0.0, 1.0, 0.0]
 //! fov_y  = 39.3               # vertical field of view, degrees
+//! # focal_pixels = 724.3       # instead: a focal length in pixels, so the
+//!                             # field of view follows -r's height (CS184)
 //!
 //! [film]
 //! resolution = [512, 512]     # width, height
@@ -102,6 +104,7 @@ struct CameraToml {
     #[serde(default)]
     aperture_radius: f32,
     focus_distance: Option<f32>,
+    focal_pixels: Option<f32>,
 }
 
 fn default_up() -> [f32; 3] {
@@ -880,6 +883,16 @@ pub fn load(path: &Path) -> Result<Scene> {
                 up,
                 fov_y: c.fov_y,
             };
+            if let Some(f) = c.focal_pixels {
+                if !(f.is_finite() && f > 0.0) {
+                    return Err(Error::input(
+                        path,
+                        line,
+                        format!("camera.focal_pixels must be a positive number, got {f}"),
+                    ));
+                }
+                scene.set_focal_pixels(f);
+            }
             // the plane in focus defaults to the target's
             let focus = c.focus_distance.unwrap_or(view.length());
             // lens points must stay within Embree's coordinate range
