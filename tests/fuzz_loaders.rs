@@ -1,7 +1,8 @@
 //! A bounded, deterministic mutation fuzzer for every scene loader (issue 4
 //! item 5, hard case 28): the TOML scene, the OBJ mesh (through tobj), its
 //! MTL library, the `[[procedural]]` source, PLY meshes (ASCII and both
-//! binary byte orders), Mitsuba 3 XML scenes and CSE 167/168 `.test` scenes.
+//! binary byte orders), Mitsuba 3 XML scenes, CS184 COLLADA `.dae` scenes
+//! and CSE 167/168 `.test` scenes.
 //! Each input is a bundled or hand-written seed file with one to four random
 //! mutations (byte changes, hostile tokens such as `nan`, `1e30`,
 //! `4294967296`, huge indices or counts, deleted or repeated ranges,
@@ -595,6 +596,18 @@ fn fuzz_cse_test() {
         "scene.test",
         &[cornell.as_bytes(), raytracer.as_bytes()],
         "scene.test",
+    );
+}
+
+#[test]
+fn fuzz_collada_dae() {
+    let room = include_str!("data/collada/room.dae");
+    fuzz(
+        "collada-dae",
+        &[("scene.dae", "")],
+        "scene.dae",
+        &[room.as_bytes()],
+        "scene.dae",
     );
 }
 
