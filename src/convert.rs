@@ -154,7 +154,15 @@ impl Writer<'_> {
             scene.source.display()
         );
         let uv = !scene.tri_uv.is_empty();
-        let vn = !scene.tri_shading_normals.is_empty();
+        // flat triangles keep zero normals in the scene: a mesh of only
+        // those needs no `vn` lines
+        let smooth = |t: usize| {
+            !scene.tri_shading_normals.is_empty()
+                && scene.tri_shading_normals[t]
+                    .iter()
+                    .all(|n| *n != Vec3::ZERO)
+        };
+        let vn = range.clone().any(smooth);
         for t in range.clone() {
             for p in scene.triangle(t as u32) {
                 let _ = writeln!(text, "v {} {} {}", num(p.x), num(p.y), num(p.z));
@@ -171,13 +179,9 @@ impl Writer<'_> {
             }
         }
         for (j, t) in range.enumerate() {
-            let smooth = vn
-                && scene.tri_shading_normals[t]
-                    .iter()
-                    .all(|n| *n != Vec3::ZERO);
             let corner = |c: usize| {
                 let i = 3 * j + c + 1;
-                match (uv, smooth) {
+                match (uv, smooth(t)) {
                     (true, true) => format!("{i}/{i}/{i}"),
                     (true, false) => format!("{i}/{i}"),
                     (false, true) => format!("{i}//{i}"),
