@@ -37,7 +37,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render a scene (.toml, .obj, .ply, Mitsuba 3 .xml or CSE .test) to an image.
+    /// Render a scene (.toml, .obj, .ply, Mitsuba 3 .xml, CS184 .dae or CSE .test) to an image.
     Render(RenderArgs),
     /// Measure build time, memory and ray throughput of each backend.
     Bench(BenchArgs),
@@ -66,7 +66,7 @@ struct ConvertArgs {
 
 #[derive(Args)]
 struct PlanArgs {
-    /// Scene file: .toml, .obj, .ply, Mitsuba 3 .xml or CSE 167/168 .test.
+    /// Scene file: .toml, .obj, .ply, Mitsuba 3 .xml, CS184 .dae or CSE 167/168 .test.
     scene: PathBuf,
     /// Maximum bounces (decides `indirect`) [scene default].
     #[arg(short = 'm', long = "max-depth")]
@@ -78,7 +78,7 @@ struct PlanArgs {
 
 #[derive(Args)]
 struct StudyArgs {
-    /// Scene file: .toml, .obj, .ply, Mitsuba 3 .xml or CSE 167/168 .test.
+    /// Scene file: .toml, .obj, .ply, Mitsuba 3 .xml, CS184 .dae or CSE 167/168 .test.
     scene: PathBuf,
     /// Output folder (created if missing).
     #[arg(long, value_name = "DIR")]
@@ -142,7 +142,7 @@ struct DiffArgs {
 
 #[derive(Args)]
 struct ParityArgs {
-    /// Scene file: .toml, .obj, .ply, Mitsuba 3 .xml or CSE 167/168 .test.
+    /// Scene file: .toml, .obj, .ply, Mitsuba 3 .xml, CS184 .dae or CSE 167/168 .test.
     scene: PathBuf,
     /// Rays per kind.
     #[arg(long, default_value_t = 100_000)]
@@ -173,7 +173,7 @@ struct ParityArgs {
 
 #[derive(Args)]
 struct BenchArgs {
-    /// Scene file: .toml, .obj, .ply, Mitsuba 3 .xml or CSE 167/168 .test.
+    /// Scene file: .toml, .obj, .ply, Mitsuba 3 .xml, CS184 .dae or CSE 167/168 .test.
     scene: PathBuf,
     /// Backends, comma-separated [every one compiled in; naive only below
     /// 20k triangles unless named].
@@ -208,7 +208,7 @@ struct BenchArgs {
 
 #[derive(Args)]
 struct RenderArgs {
-    /// Scene file: .toml, or a bare .obj (framed automatically).
+    /// Scene file: .toml, .obj, .ply, Mitsuba 3 .xml, CS184 .dae or CSE 167/168 .test.
     scene: PathBuf,
     /// Output image; the extension picks the format (.png, .exr, .pfm).
     #[arg(short = 'o', long = "output", visible_short_alias = 'f')]

@@ -678,6 +678,48 @@ fn classic_command_line_renders() {
 }
 
 #[test]
+fn the_cs184_command_line_renders_a_dae() {
+    let dir = tempfile::tempdir().unwrap();
+    let room = include_str!("data/collada/room.dae");
+    setup(dir.path(), &[("room.dae", room.into())]);
+    let out = run(
+        dir.path(),
+        &[
+            "-t",
+            "8",
+            "-s",
+            "2",
+            "-l",
+            "4",
+            "-m",
+            "2",
+            "-r",
+            "48",
+            "36",
+            "-f",
+            "spheres.png",
+            "room.dae",
+            "--report",
+            "r.json",
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let img = image::open(dir.path().join("spheres.png")).unwrap();
+    assert_eq!((img.width(), img.height()), (48, 36));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("r.json")).unwrap()).unwrap();
+    // -l 4 per area light: 4 from the room's area light, 1 from its point
+    // light
+    assert_eq!(report["light_samples"], 5);
+    assert_eq!(report["max_depth"], 2);
+    assert!(
+        stderr.contains("camera placed as the course places it"),
+        "{stderr}"
+    );
+}
+
+#[test]
 fn exr_output_carries_render_metadata() {
     let dir = tempfile::tempdir().unwrap();
     setup(dir.path(), &[("m.obj", GOOD_OBJ.into())]);
