@@ -126,17 +126,16 @@ fn children<'a, 'i>(n: Node<'a, 'i>, name: &'a str) -> impl Iterator<Item = Node
 
 impl<'a, 'i> Loader<'a, 'i> {
     fn line(&self, n: Node) -> usize {
-        self.doc.text_pos_at(n.range().start).row as usize
+        super::xml::line(self.doc, n)
     }
 
     fn fail(&self, n: Node, msg: impl Into<String>) -> Error {
-        Error::input(self.path, Some(self.line(n)), msg)
+        super::xml::error(self.path, self.doc, n, msg)
     }
 
     fn warn(&mut self, n: Node, msg: impl std::fmt::Display) {
-        let line = self.line(n);
-        self.warnings
-            .push(format!("{}:{line}: {msg}", self.path.display()));
+        let w = super::xml::warning(self.path, self.doc, n, msg);
+        self.warnings.push(w);
     }
 
     /// The element a path of child names leads to from `n`, following a

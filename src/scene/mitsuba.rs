@@ -162,17 +162,16 @@ pub fn load(path: &Path) -> Result<Scene> {
 
 impl<'a, 'i> Loader<'a, 'i> {
     fn line(&self, node: Node) -> usize {
-        self.doc.text_pos_at(node.range().start).row as usize
+        super::xml::line(self.doc, node)
     }
 
     fn fail(&self, node: Node, msg: impl Into<String>) -> Error {
-        Error::input(self.path, Some(self.line(node)), msg)
+        super::xml::error(self.path, self.doc, node, msg)
     }
 
     fn warn(&mut self, node: Node, msg: impl std::fmt::Display) {
-        let line = self.line(node);
-        self.warnings
-            .push(format!("{}:{line}: {msg}", self.path.display()));
+        let w = super::xml::warning(self.path, self.doc, node, msg);
+        self.warnings.push(w);
     }
 
     /// Attribute `name` with `$defaults` substituted.

@@ -13,6 +13,7 @@ mod obj;
 mod ply;
 pub mod procedural;
 mod toml_file;
+mod xml;
 
 use crate::accel::{Hit, Sphere};
 use crate::bsdf::{Bsdf, Diffuse};
