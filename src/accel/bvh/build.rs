@@ -321,18 +321,23 @@ fn sort_keys(prims: &[PrimRef], axis: usize, keys: &mut [u64]) {
 fn sweep_plan(prims: &mut [PrimRef], info: &Info) -> Option<Candidate> {
     let n = prims.len();
     let parent = info.bounds.half_area().max(f32::MIN_POSITIVE);
-    // scratch on the stack for small ranges, the heap for large ones
-    let (mut small_area, mut small_keys) = ([0.0f32; SMALL], [0u64; SMALL]);
-    let (mut large_area, mut large_keys) = (Vec::new(), Vec::new());
-    let (right_area, keys) = if n <= SMALL {
-        (&mut small_area[..n], &mut small_keys[..n])
+    // scratch on the stack for small ranges, the heap for large ones: the
+    // right-hand areas, and the sorted keys of the axis being swept and of
+    // the best one so far (kept, so the winner need not be sorted again)
+    let (mut small_area, mut small_keys) = ([0.0f32; SMALL], [[0u64; SMALL]; 2]);
+    let (mut large_area, mut large_keys) = (Vec::new(), [Vec::new(), Vec::new()]);
+    let (right_area, [mut keys, mut best_keys]) = if n <= SMALL {
+        let [a, b] = &mut small_keys;
+        (&mut small_area[..n], [&mut a[..n], &mut b[..n]])
     } else {
         large_area.resize(n, 0.0f32);
-        large_keys.resize(n, 0u64);
-        (&mut large_area[..], &mut large_keys[..])
+        let [a, b] = &mut large_keys;
+        a.resize(n, 0u64);
+        b.resize(n, 0u64);
+        (&mut large_area[..], [&mut a[..], &mut b[..]])
     };
     let bounds = |k: u64| &prims[k as u32 as usize].bounds;
-    let mut best: Option<(f32, usize, usize)> = None;
+    let mut best: Option<(f32, usize)> = None;
     for axis in 0..3 {
         if !(info.centers.max[axis] > info.centers.min[axis]) {
             continue;
@@ -345,26 +350,33 @@ fn sweep_plan(prims: &mut [PrimRef], info: &Info) -> Option<Candidate> {
             *ra = acc.half_area();
         }
         let mut left = Aabb::EMPTY;
+        let mut improved = false;
         for (i, (&k, &ra)) in keys.iter().zip(&right_area[1..]).enumerate() {
             left = left.union(bounds(k));
             let nl = i + 1;
             let cost = split_cost(parent, left.half_area(), nl, ra, n - nl);
-            if best.is_none_or(|(c, _, _)| cost < c) {
-                best = Some((cost, axis, nl));
+            if best.is_none_or(|(c, _)| cost < c) {
+                best = Some((cost, nl));
+                improved = true;
             }
         }
+        if improved {
+            std::mem::swap(&mut keys, &mut best_keys);
+        }
     }
-    let (cost, axis, at) = best?;
+    let (cost, at) = best?;
     // reorder along the winning axis
-    sort_keys(prims, axis, keys);
     if n <= SMALL {
         let mut sorted = [prims[0]; SMALL];
-        for (s, &k) in sorted.iter_mut().zip(keys.iter()) {
+        for (s, &k) in sorted.iter_mut().zip(best_keys.iter()) {
             *s = prims[k as u32 as usize];
         }
         prims.copy_from_slice(&sorted[..n]);
     } else {
-        let sorted: Vec<PrimRef> = keys.iter().map(|&k| prims[k as u32 as usize]).collect();
+        let sorted: Vec<PrimRef> = best_keys
+            .iter()
+            .map(|&k| prims[k as u32 as usize])
+            .collect();
         prims.copy_from_slice(&sorted);
     }
     Some(Candidate {
@@ -512,8 +524,30 @@ fn partition(prims: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> (usize, 
 
 /// A built subtree before it is flattened into the node array.
 enum Built {
-    Leaf { start: usize, count: usize },
-    Inner(Box<[(Aabb, Built)]>),
+    Leaf {
+        start: usize,
+        count: usize,
+    },
+    Inner {
+        children: Box<[(Aabb, Built)]>,
+        /// The subtree's shape: its inner nodes and leaves (so that its
+        /// place in the flat arrays is known before it is flattened), and
+        /// its depth in inner nodes.
+        shape: TreeStats,
+    },
+}
+
+impl Built {
+    fn shape(&self) -> TreeStats {
+        match self {
+            Built::Leaf { .. } => TreeStats {
+                nodes: 0,
+                leaves: 1,
+                depth: 0,
+            },
+            Built::Inner { shape, .. } => *shape,
+        }
+    }
 }
 
 /// Build the subtree for an item that splits.
@@ -569,7 +603,21 @@ fn build_inner(item: Item<'_>, quality: BvhQuality) -> Built {
     } else {
         slots.into_iter().map(child).collect()
     };
-    Built::Inner(children.into_boxed_slice())
+    let mut shape = TreeStats {
+        nodes: 1,
+        leaves: 0,
+        depth: 0,
+    };
+    for (_, c) in &children {
+        let s = c.shape();
+        shape.nodes += s.nodes;
+        shape.leaves += s.leaves;
+        shape.depth = shape.depth.max(s.depth + 1);
+    }
+    Built::Inner {
+        children: children.into_boxed_slice(),
+        shape,
+    }
 }
 
 /// Shape of a finished tree, for tests and reports.
@@ -583,42 +631,60 @@ pub struct TreeStats {
     pub depth: usize,
 }
 
-fn count_inner(built: &Built) -> usize {
-    match built {
-        Built::Leaf { .. } => 0,
-        Built::Inner(children) => 1 + children.iter().map(|c| count_inner(&c.1)).sum::<usize>(),
-    }
-}
+/// Subtrees with at least this many inner nodes are flattened in parallel.
+const PARALLEL_FLATTEN_MIN: usize = 256;
 
-/// Where [`flatten`] puts nodes and leaves.
-struct Flat {
-    nodes: Vec<Node4>,
-    /// Each leaf's range of `prims`, in depth-first order: leaf `i` becomes
-    /// triangle block `i`.
-    leaves: Vec<Range<usize>>,
-    stats: TreeStats,
-}
-
-fn flatten(built: &Built, flat: &mut Flat, depth: usize) -> ChildRef {
-    match built {
+/// Write `built` into its place, depth-first: `nodes[0]` is its root (when
+/// inner) and `leaves[0]` its first leaf, which are node `node_base` and
+/// leaf `leaf_base` of the whole tree. Consumes the subtree, so its memory
+/// is freed where it is flattened (in parallel for large subtrees).
+fn flatten(
+    built: Built,
+    nodes: &mut [Node4],
+    node_base: usize,
+    leaves: &mut [Range<usize>],
+    leaf_base: usize,
+) -> ChildRef {
+    let (children, shape) = match built {
         Built::Leaf { start, count } => {
-            flat.stats.leaves += 1;
-            flat.leaves.push(*start..start + count);
-            ChildRef::leaf(flat.leaves.len() - 1, *count)
+            leaves[0] = start..start + count;
+            return ChildRef::leaf(leaf_base, count);
         }
-        Built::Inner(children) => {
-            flat.stats.nodes += 1;
-            flat.stats.depth = flat.stats.depth.max(depth + 1);
-            let index = flat.nodes.len();
-            flat.nodes.push(Node4::EMPTY);
-            let mut node = Node4::EMPTY;
-            for (k, (bounds, child)) in children.iter().enumerate() {
-                node.set(k, bounds, flatten(child, flat, depth + 1));
-            }
-            flat.nodes[index] = node;
-            ChildRef::inner(index)
-        }
+        Built::Inner { children, shape } => (children, shape),
+    };
+    let (this, mut nodes_rest) = nodes.split_first_mut().expect("an inner node has a slot");
+    let mut leaves_rest = leaves;
+    let (mut nb, mut lb) = (node_base + 1, leaf_base);
+    // each child's slots, in depth-first order
+    let mut parts = Vec::with_capacity(children.len());
+    for (bounds, child) in children.into_vec() {
+        let s = child.shape();
+        let (n, nr) = std::mem::take(&mut nodes_rest).split_at_mut(s.nodes);
+        let (l, lr) = std::mem::take(&mut leaves_rest).split_at_mut(s.leaves);
+        (nodes_rest, leaves_rest) = (nr, lr);
+        parts.push((bounds, child, n, nb, l, lb));
+        nb += s.nodes;
+        lb += s.leaves;
     }
+    let one = |(bounds, child, n, nb, l, lb): (
+        Aabb,
+        Built,
+        &mut [Node4],
+        usize,
+        &mut [Range<usize>],
+        usize,
+    )| { (bounds, flatten(child, n, nb, l, lb)) };
+    let refs: Vec<(Aabb, ChildRef)> = if shape.nodes >= PARALLEL_FLATTEN_MIN {
+        parts.into_par_iter().map(one).collect()
+    } else {
+        parts.into_iter().map(one).collect()
+    };
+    let mut node = Node4::EMPTY;
+    for (k, (bounds, r)) in refs.iter().enumerate() {
+        node.set(k, bounds, *r);
+    }
+    *this = node;
+    ChildRef::inner(node_base)
 }
 
 /// A finished tree: nodes in depth-first order, the root reference (a leaf
@@ -633,11 +699,14 @@ pub struct Tree {
     pub leaves: Vec<Range<usize>>,
     /// Shape.
     pub stats: TreeStats,
+    /// Bounds of every triangle.
+    pub bounds: Aabb,
 }
 
 /// Build over `prims` (reordered into leaf order).
 pub fn build(prims: &mut [PrimRef], quality: BvhQuality) -> Tree {
     let root = Item::new(prims, 0, 0, quality);
+    let bounds = root.info.bounds;
     let built = match root.plan {
         Plan::Leaf => Built::Leaf {
             start: 0,
@@ -645,16 +714,15 @@ pub fn build(prims: &mut [PrimRef], quality: BvhQuality) -> Tree {
         },
         _ => build_inner(root, quality),
     };
-    let mut flat = Flat {
-        nodes: Vec::with_capacity(count_inner(&built)),
-        leaves: Vec::new(),
-        stats: TreeStats::default(),
-    };
-    let root = flatten(&built, &mut flat, 0);
+    let stats = built.shape();
+    let mut nodes = vec![Node4::EMPTY; stats.nodes];
+    let mut leaves = vec![0..0; stats.leaves];
+    let root = flatten(built, &mut nodes, 0, &mut leaves, 0);
     Tree {
-        nodes: flat.nodes,
+        nodes,
         root,
-        leaves: flat.leaves,
-        stats: flat.stats,
+        leaves,
+        stats,
+        bounds,
     }
 }

@@ -46,7 +46,7 @@ use super::sphere::SphereSet;
 use super::triangle::Tri4;
 use super::{Accelerator, Hit, TriangleSoup};
 use crate::error::{Error, Result};
-use crate::math::{Ray, Vec3};
+use crate::math::Ray;
 use build::PrimRef;
 use node::{Aabb, ChildRef, Node4};
 use rayon::prelude::*;
@@ -103,18 +103,26 @@ impl Bvh {
             return Err(too_many());
         }
         let corners = |t: &[u32; 3]| t.map(|k| soup.positions[k as usize]);
+        // an exact-size parallel collect, then the (rare) non-finite
+        // triangles dropped: an empty box marks them
         let mut prims: Vec<PrimRef> = soup
             .indices
             .par_iter()
             .enumerate()
-            .filter_map(|(i, t)| {
+            .map(|(i, t)| {
                 let p = corners(t);
-                p.iter().all(|q| q.is_finite()).then(|| PrimRef {
-                    bounds: Aabb::of_triangle(&p),
+                let bounds = if p.iter().all(|q| q.is_finite()) {
+                    Aabb::of_triangle(&p)
+                } else {
+                    Aabb::EMPTY
+                };
+                PrimRef {
+                    bounds,
                     id: i as u32,
-                })
+                }
             })
             .collect();
+        prims.retain(|p| !p.bounds.is_empty());
         if prims.len() > MAX_TRIANGLES {
             return Err(too_many());
         }
@@ -129,24 +137,26 @@ impl Bvh {
                 spheres,
             });
         }
-        let bounds = prims.iter().fold(Aabb::EMPTY, |b, p| b.union(&p.bounds));
         let tree = build::build(&mut prims, quality);
         let blocks = tree
             .leaves
             .par_iter()
             .map(|r| {
-                let tris: Vec<(u32, [Vec3; 3])> = prims[r.clone()]
-                    .iter()
-                    .map(|p| (p.id, corners(&soup.indices[p.id as usize])))
-                    .collect();
-                Tri4::new(&tris)
+                // a leaf holds 1 to 4 triangles; unused lanes repeat the first
+                let leaf = &prims[r.clone()];
+                let mut b = Tri4::default();
+                for l in 0..4 {
+                    let p = &leaf[if l < leaf.len() { l } else { 0 }];
+                    b.set(l, corners(&soup.indices[p.id as usize]), p.id);
+                }
+                b
             })
             .collect();
         Ok(Bvh {
             nodes: tree.nodes,
             blocks,
             root: Some(tree.root),
-            bounds,
+            bounds: tree.bounds,
             stats: tree.stats,
             spheres,
         })

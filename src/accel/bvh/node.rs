@@ -34,6 +34,12 @@ impl Aabb {
         }
     }
 
+    /// Whether the box contains nothing (like [`Aabb::EMPTY`]).
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.min.cmpgt(self.max).any()
+    }
+
     /// Grow to contain `p`.
     #[inline]
     pub fn grow(&mut self, p: Vec3A) {

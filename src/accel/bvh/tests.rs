@@ -5,6 +5,7 @@
 
 use super::*;
 use crate::accel::naive::Naive;
+use crate::math::Vec3;
 use crate::sampler::Sampler;
 use crate::sampling::square_to_uniform_sphere;
 
