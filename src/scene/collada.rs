@@ -228,6 +228,33 @@ impl<'a, 'i> Loader<'a, 'i> {
     }
 
     /// A required child's colour or number.
+    /// The 3-vectors of float source `id` (`what`: position or normal),
+    /// as an error at `at` when it is missing or has fewer than three
+    /// numbers per element.
+    fn vec3_source(
+        &self,
+        sources: &HashMap<&str, (Vec<f32>, usize)>,
+        id: &str,
+        at: Node,
+        what: &str,
+    ) -> Result<Vec<Vec3>> {
+        let (v, stride) = sources.get(id).ok_or_else(|| {
+            self.fail(
+                at,
+                format!(
+                    "{what} source `{}` is not a float array of this mesh",
+                    one_line(id)
+                ),
+            )
+        })?;
+        if *stride < 3 {
+            return Err(self.fail(at, format!("{what}s need three numbers each")));
+        }
+        Ok(v.chunks_exact(*stride)
+            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .collect())
+    }
+
     fn need(&self, parent: Node<'a, 'i>, name: &str) -> Result<Node<'a, 'i>> {
         self.element(parent, name).ok_or_else(|| {
             self.fail(
@@ -557,22 +584,7 @@ impl<'a, 'i> Loader<'a, 'i> {
             .attribute("source")
             .unwrap_or("")
             .trim_start_matches('#');
-        let (pos, pos_stride) = sources.get(pos_id).ok_or_else(|| {
-            self.fail(
-                pos_src,
-                format!(
-                    "position source `{}` is not a float array of this mesh",
-                    one_line(pos_id)
-                ),
-            )
-        })?;
-        if *pos_stride < 3 {
-            return Err(self.fail(pos_src, "positions need three numbers each"));
-        }
-        let positions: Vec<Vec3> = pos
-            .chunks_exact(*pos_stride)
-            .map(|c| Vec3::new(c[0], c[1], c[2]))
-            .collect();
+        let positions = self.vec3_source(&sources, pos_id, pos_src, "position")?;
         if positions.len() as u64 > limits::MAX_VERTICES {
             return Err(self.fail(
                 pos_src,
@@ -632,22 +644,7 @@ impl<'a, 'i> Loader<'a, 'i> {
                         vertex_offset = Some(offset);
                     }
                     Some("NORMAL") => {
-                        let (v, s) = sources.get(source).ok_or_else(|| {
-                            self.fail(
-                                input,
-                                format!(
-                                    "normal source `{}` is not a float array of this mesh",
-                                    one_line(source)
-                                ),
-                            )
-                        })?;
-                        if *s < 3 {
-                            return Err(self.fail(input, "normals need three numbers each"));
-                        }
-                        let n = v
-                            .chunks_exact(*s)
-                            .map(|c| Vec3::new(c[0], c[1], c[2]))
-                            .collect();
+                        let n = self.vec3_source(&sources, source, input, "normal")?;
                         normal = Some((offset, n));
                     }
                     _ => {}
