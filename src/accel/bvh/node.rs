@@ -74,21 +74,29 @@ pub const WIDTH: usize = 4;
 pub const LEVELS: usize = WIDTH.trailing_zeros() as usize;
 const _: () = assert!(WIDTH == 1 << LEVELS && WIDTH <= 32);
 
-/// Most triangles in a leaf.
-pub const LEAF_MAX: usize = 4;
+/// Triangles per block: the unit the leaf test takes at once ([`Tri4`]).
+///
+/// [`Tri4`]: crate::accel::triangle::Tri4
+pub const BLOCK: usize = 4;
+
+/// Most triangles in a leaf: up to four consecutive blocks. A leaf of
+/// several blocks trades a node step (a dependent load, a cache miss in
+/// large scenes) for block tests whose loads are independent.
+pub const LEAF_MAX: usize = 16;
 
 /// Top bit of a child reference: set for a leaf.
 const LEAF_BIT: u32 = 1 << 31;
 /// Bits of a leaf reference that hold `count - 1`.
-const COUNT_BITS: u32 = 2;
-const _: () = assert!(LEAF_MAX == 1 << COUNT_BITS);
+const COUNT_BITS: u32 = 4;
+const _: () = assert!(LEAF_MAX == 1 << COUNT_BITS && LEAF_MAX % BLOCK == 0);
 
-/// Most triangles a BVH can hold: a leaf reference keeps its block's index
-/// in 29 bits, and there are never more blocks than triangles.
+/// Most triangles a BVH can hold: a leaf reference keeps its first block's
+/// index in 27 bits, and there are never more blocks than triangles.
 pub const MAX_TRIANGLES: usize = 1 << (31 - COUNT_BITS);
 
 /// A child reference: an inner node's index, or (top bit set) a leaf: the
-/// first `count <= LEAF_MAX` lanes of triangle block `block`.
+/// first `count <= LEAF_MAX` triangles of the consecutive blocks starting at
+/// block `block` (every block full but the last).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ChildRef(pub u32);
 
@@ -100,7 +108,7 @@ impl ChildRef {
         ChildRef(index as u32)
     }
 
-    /// The reference to a leaf: `count` triangles in block `block`.
+    /// The reference to a leaf: `count` triangles from block `block` on.
     #[inline]
     pub fn leaf(block: usize, count: usize) -> ChildRef {
         debug_assert!((1..=LEAF_MAX).contains(&count) && block < MAX_TRIANGLES);
@@ -113,17 +121,29 @@ impl ChildRef {
         self.0 & LEAF_BIT != 0
     }
 
-    /// A leaf's block index (meaningless for an inner node).
+    /// A leaf's first block (meaningless for an inner node).
     #[inline(always)]
     pub fn block(self) -> usize {
         ((self.0 & !LEAF_BIT) >> COUNT_BITS) as usize
     }
 
-    /// A leaf's lane mask: one bit per triangle (meaningless for an inner
-    /// node).
+    /// A leaf's triangle count (meaningless for an inner node).
     #[inline(always)]
-    pub fn lanes(self) -> u32 {
-        (2 << (self.0 & (LEAF_MAX as u32 - 1))) - 1
+    pub fn count(self) -> usize {
+        (self.0 & (LEAF_MAX as u32 - 1)) as usize + 1
+    }
+
+    /// A leaf's blocks (meaningless for an inner node).
+    #[inline(always)]
+    pub fn blocks(self) -> usize {
+        self.count().div_ceil(BLOCK)
+    }
+
+    /// The lane mask of a leaf's last block: one bit per triangle
+    /// (meaningless for an inner node); the blocks before it are full.
+    #[inline(always)]
+    pub fn last_lanes(self) -> u32 {
+        (2 << (self.0 & (BLOCK as u32 - 1))) - 1
     }
 
     /// An inner node's index (meaningless for a leaf).
@@ -181,10 +201,15 @@ mod tests {
     fn child_refs_round_trip() {
         let r = ChildRef::leaf(MAX_TRIANGLES - 1, LEAF_MAX);
         assert!(r.is_leaf());
-        assert_eq!((r.block(), r.lanes()), (MAX_TRIANGLES - 1, 0b1111));
+        assert_eq!(
+            (r.block(), r.count(), r.blocks(), r.last_lanes()),
+            (MAX_TRIANGLES - 1, LEAF_MAX, LEAF_MAX / BLOCK, 0b1111)
+        );
         let r = ChildRef::leaf(7, 1);
-        assert_eq!((r.block(), r.lanes()), (7, 1));
-        assert_eq!(ChildRef::leaf(0, 3).lanes(), 0b111);
+        assert_eq!((r.block(), r.blocks(), r.last_lanes()), (7, 1, 1));
+        assert_eq!(ChildRef::leaf(0, 3).last_lanes(), 0b111);
+        let r = ChildRef::leaf(9, 6);
+        assert_eq!((r.block(), r.blocks(), r.last_lanes()), (9, 2, 0b11));
         let r = ChildRef::inner(123_456);
         assert!(!r.is_leaf());
         assert_eq!(r.index(), 123_456);

@@ -75,6 +75,30 @@ fn single_triangle_is_a_root_leaf() {
 }
 
 #[test]
+fn a_leaf_of_several_blocks_answers_every_lane() {
+    // 13 stacked copies of one triangle, a little apart in z: splitting
+    // them saves no box area, so they become one root leaf of four blocks
+    // (4 + 4 + 4 + 1 lanes), and a ray down -z must find the top one (the
+    // last, in the last block's only lane) and, from between two copies,
+    // the copy below
+    let mut soup = Soup::default();
+    for k in 0..13 {
+        let z = Vec3::Z * (k as f32 * 1e-3);
+        soup.tri(z, Vec3::X + z, Vec3::Y + z);
+    }
+    let bvh = soup.bvh(BvhQuality::Fast);
+    let root = bvh.root.expect("a root");
+    assert!(root.is_leaf() && root.count() == 13 && root.blocks() == 4);
+    assert_eq!((bvh.stats().blocks, bvh.blocks.len()), (4, 4));
+    let down = |z: f32| Ray::new(Vec3::new(0.25, 0.25, z), -Vec3::Z);
+    assert_eq!(bvh.intersect(&down(1.0)).map(|h| h.prim), Some(12));
+    assert_eq!(bvh.intersect(&down(0.0075)).map(|h| h.prim), Some(7));
+    assert!(!bvh.occluded(&Ray::new(Vec3::new(0.25, 0.25, 1.0), Vec3::Z)));
+    let mut s = Sampler::new(3, 0, 0);
+    assert_parity(&soup, &random_rays(&mut s, 5000, Vec3::splat(0.3), 1.0));
+}
+
+#[test]
 fn degenerate_and_non_finite_triangles() {
     let mut s = Sampler::new(1, 0, 0);
     let mut soup = Soup::default();
@@ -105,7 +129,7 @@ fn degenerate_and_non_finite_triangles() {
     let bvh = soup.bvh(BvhQuality::Fast);
     assert_eq!(bvh.blocks.len(), 1);
     assert_eq!(
-        (bvh.blocks[0].ids[0], bvh.root.map(|r| r.lanes())),
+        (bvh.blocks[0].ids[0], bvh.root.map(|r| r.last_lanes())),
         (0, Some(1))
     );
     assert!(bvh.bounds.min.is_finite() && bvh.bounds.max.is_finite());

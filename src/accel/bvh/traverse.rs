@@ -239,9 +239,14 @@ impl Bvh {
                     continue;
                 }
             } else {
-                let block = &self.blocks[cur.block()];
-                wr.intersect4(block, cur.lanes(), t_max)
-                    .fold_closest(block, &mut best, &mut t_max);
+                // every block of a leaf is full but the last; their loads
+                // do not depend on each other
+                let (first, n) = (cur.block(), cur.blocks());
+                for (k, block) in self.blocks[first..first + n].iter().enumerate() {
+                    let lanes = if k + 1 == n { cur.last_lanes() } else { 0b1111 };
+                    wr.intersect4(block, lanes, t_max)
+                        .fold_closest(block, &mut best, &mut t_max);
+                }
             }
             // pop the next child the ray can still reach before t_max
             loop {
@@ -295,12 +300,12 @@ impl Bvh {
                     continue;
                 }
             } else {
-                if wr
-                    .intersect4(&self.blocks[cur.block()], cur.lanes(), t_max)
-                    .mask
-                    != 0
-                {
-                    return true;
+                let (first, n) = (cur.block(), cur.blocks());
+                for (k, block) in self.blocks[first..first + n].iter().enumerate() {
+                    let lanes = if k + 1 == n { cur.last_lanes() } else { 0b1111 };
+                    if wr.intersect4(block, lanes, t_max).mask != 0 {
+                        return true;
+                    }
                 }
             }
             if sp == 0 {
