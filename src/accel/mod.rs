@@ -11,7 +11,7 @@
 //! - [`Accelerator::occluded`]: whether any hit exists in that range.
 //!
 //! Backends: `naive` (brute force over every triangle with the watertight test
-//! of [`triangle`]; the oracle for tests), `bvh` (the pure-Rust 4-wide BVH of
+//! of [`triangle`]; the oracle for tests), `bvh` (the pure-Rust 8-wide BVH of
 //! [`bvh`], which gives the naive backend's closest hit bit for bit) and
 //! `embree` (Intel Embree through FFI, when built with the `embree` or
 //! `embree4` feature).

@@ -1,4 +1,4 @@
-//! BVH construction, top-down, straight into 4-wide nodes.
+//! BVH construction, top-down, straight into [`WIDTH`]-wide nodes.
 //!
 //! Splits are chosen by the surface area heuristic (MacDonald and Booth,
 //! "Heuristics for ray tracing using space subdivision", 1990):
@@ -14,16 +14,17 @@
 //! Both builds sweep ranges of up to [`SMALL`] triangles exhaustively, where
 //! that is cheaper than binning.
 //!
-//! A 4-wide node is made from up to three binary splits: its range is split,
-//! both halves are split again unless the SAH makes them leaves, and if a
-//! slot is still free the largest-area half that is not a leaf is split once
-//! more (Wald et al., "Getting Rid of Packets", RT 2008; Embree's BVH4
-//! opens the largest child the same way). Subtrees of more than
+//! A node of [`WIDTH`] = 2^[`LEVELS`] slots is made from binary splits: its
+//! range is split [`LEVELS`] times over (every part that the SAH does not
+//! make a leaf is split again), and while a slot is still free the
+//! largest-area part that is not a leaf is split once more (Wald et al.,
+//! "Getting Rid of Packets", RT 2008; Embree's BVH4 and BVH8 open the
+//! largest child the same way). Subtrees of more than
 //! [`PARALLEL_MIN`] triangles are built in parallel with rayon.
 //!
-//! Depth bound. Every path through a 4-wide node crosses at least two binary
-//! levels unless it ends in a leaf, so the 4-wide depth is at most
-//! `ceil(MAX_DEPTH / 2)` when no leaf is deeper than [`MAX_DEPTH`] binary
+//! Depth bound. Every path through a node crosses at least [`LEVELS`] binary
+//! levels unless it ends in a leaf, so the depth in nodes is at most
+//! `ceil(MAX_DEPTH / LEVELS)` when no leaf is deeper than [`MAX_DEPTH`] binary
 //! levels. The builder guarantees that: a range of `n` triangles at binary
 //! depth `d` always satisfies `n <= LEAF_MAX * 2^(MAX_DEPTH - d)` (true at
 //! the root for any `n < 2^44`), and an SAH split whose larger half would
@@ -32,7 +33,7 @@
 //! from this bound.
 
 use super::BvhQuality;
-use super::node::{Aabb, BLOCK, ChildRef, LEAF_MAX, LEVELS, Node4, WIDTH};
+use super::node::{Aabb, BLOCK, ChildRef, LEAF_MAX, LEVELS, Node, WIDTH};
 use glam::Vec3A;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -635,13 +636,13 @@ fn build_inner(item: Item<'_>, quality: BvhQuality) -> Built {
 /// Shape of a finished tree, for tests and reports.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct TreeStats {
-    /// 4-wide inner nodes.
+    /// Inner nodes.
     pub nodes: usize,
     /// Leaves.
     pub leaves: usize,
     /// Triangle blocks (a leaf has one to `LEAF_MAX / BLOCK`).
     pub blocks: usize,
-    /// Most 4-wide inner nodes on a path from the root to a leaf.
+    /// Most inner nodes on a path from the root to a leaf.
     pub depth: usize,
 }
 
@@ -655,7 +656,7 @@ const PARALLEL_FLATTEN_MIN: usize = 256;
 /// large subtrees).
 fn flatten(
     built: Built,
-    nodes: &mut [Node4],
+    nodes: &mut [Node],
     node_base: usize,
     blocks: &mut [Range<usize>],
     block_base: usize,
@@ -687,7 +688,7 @@ fn flatten(
     let one = |(bounds, child, n, nb, b, bb): (
         Aabb,
         Built,
-        &mut [Node4],
+        &mut [Node],
         usize,
         &mut [Range<usize>],
         usize,
@@ -697,7 +698,7 @@ fn flatten(
     } else {
         parts.into_iter().map(one).collect()
     };
-    let mut node = Node4::EMPTY;
+    let mut node = Node::EMPTY;
     for (k, (bounds, r)) in refs.iter().enumerate() {
         node.set(k, bounds, *r);
     }
@@ -711,7 +712,7 @@ fn flatten(
 /// shape.
 pub struct Tree {
     /// Nodes, depth-first.
-    pub nodes: Vec<Node4>,
+    pub nodes: Vec<Node>,
     /// The root.
     pub root: ChildRef,
     /// Ranges of `prims`, one per triangle block, in block order.
@@ -734,7 +735,7 @@ pub fn build(prims: &mut [PrimRef], quality: BvhQuality) -> Tree {
         _ => build_inner(root, quality),
     };
     let stats = built.shape();
-    let mut nodes = vec![Node4::EMPTY; stats.nodes];
+    let mut nodes = vec![Node::EMPTY; stats.nodes];
     let mut blocks = vec![0..0; stats.blocks];
     let root = flatten(built, &mut nodes, 0, &mut blocks, 0);
     Tree {

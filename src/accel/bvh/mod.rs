@@ -5,9 +5,9 @@
 //!   Construction of SAH-based Bounding Volume Hierarchies", IEEE RT 2007;
 //!   or a full sweep with [`BvhQuality::High`]), parallel over subtrees with
 //!   rayon, leaves of at most [`LEAF_MAX`] triangles, made directly into
-//!   4-wide nodes whose child boxes are stored plane by plane (`[f32; 4]`
-//!   per plane, Embree's BVH4 layout), so one slab test covers four children
-//!   in a few vector operations. Each leaf's triangles are copied into one
+//!   8-wide nodes whose child boxes are stored plane by plane (`[f32; 8]`
+//!   per plane, Embree's BVH8 layout), so the slab test covers four children
+//!   per vector operation. Each leaf's triangles are copied into one
 //!   to four consecutive blocks of four, coordinate by coordinate
 //!   ([`Tri4`]), with their original indices, which is what [`Hit::prim`]
 //!   reports; blocks follow the depth-first order of the leaves. The SAH
@@ -52,14 +52,14 @@ use super::{Accelerator, Hit, TriangleSoup};
 use crate::error::{Error, Result};
 use crate::math::Ray;
 use build::PrimRef;
-use node::{Aabb, ChildRef, Node4};
+use node::{Aabb, ChildRef, Node};
 use rayon::prelude::*;
 
-/// Traversal stack entries (64). Each 4-wide node on the path to the
-/// current one leaves at most three siblings on the stack, and the builder
+/// Traversal stack entries (99). Each 8-wide node on the path to the
+/// current one leaves at most seven siblings on the stack, and the builder
 /// keeps every leaf within 42 binary levels of the root with each node
-/// spanning at least two of them, so the path holds at most 21 nodes and 63
-/// entries always suffice.
+/// spanning at least three of them, so the path holds at most 14 nodes and
+/// 98 entries always suffice.
 pub const STACK_SIZE: usize = (node::WIDTH - 1) * build::MAX_DEPTH.div_ceil(node::LEVELS) + 1;
 
 /// Build quality.
@@ -75,8 +75,8 @@ pub enum BvhQuality {
 
 /// The pure-Rust BVH.
 pub struct Bvh {
-    /// 4-wide nodes, depth-first.
-    nodes: Vec<Node4>,
+    /// Nodes, depth-first.
+    nodes: Vec<Node>,
     /// Triangle blocks, one to four per leaf, in depth-first order.
     blocks: Vec<Tri4>,
     /// The root: an inner node, or a leaf for tiny scenes; `None` when no
@@ -178,7 +178,7 @@ impl Accelerator for Bvh {
     }
 
     fn memory_bytes(&self) -> usize {
-        self.nodes.capacity() * std::mem::size_of::<Node4>()
+        self.nodes.capacity() * std::mem::size_of::<Node>()
             + self.blocks.capacity() * std::mem::size_of::<Tri4>()
             + self.spheres.memory_bytes()
     }

@@ -145,7 +145,7 @@ fn degenerate_and_non_finite_triangles() {
 fn depth_bound_holds_for_skewed_input() {
     // Nested triangles over 200 binades: the SAH peels off the largest one
     // at each level, so without the depth bound the tree would be about as
-    // deep as the input is long (over 100 4-wide levels).
+    // deep as the input is long (over 60 8-wide levels).
     let mut soup = Soup::default();
     for k in 0..200 {
         let e = 2f32.powi(k - 100);

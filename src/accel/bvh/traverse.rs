@@ -5,7 +5,7 @@
 //!
 //! The slab test (Kay and Kajiya, "Ray Tracing Complex Scenes", SIGGRAPH
 //! 1986; Williams et al., "An Efficient and Robust Ray-Box Intersection
-//! Algorithm", JGT 2005) tests the four child boxes of a node at once, with
+//! Algorithm", JGT 2005) tests the child boxes of a node four at a time, with
 //! the robustness measures of Ize ("Robust BVH Ray Traversal", JCGT 2(2),
 //! 2013) and pbrt-v4 (section 6.8.2), so that no box holding a triangle the
 //! watertight test would report is ever culled:
@@ -35,14 +35,17 @@
 //! a hit at the same `t` as the best so far replaces it only if its original
 //! index is lower.
 
-use super::node::{Aabb, ChildRef, Node4, WIDTH};
+use super::node::{Aabb, ChildRef, Node, WIDTH};
 use super::{Bvh, STACK_SIZE};
 use crate::accel::Hit;
 use crate::accel::triangle::WatertightRay;
 use crate::math::{Ray, Vec3, next_float_down, next_float_up};
 use glam::Vec4;
 
-const _: () = assert!(WIDTH == 4, "the slab test is written for 4-wide nodes");
+const _: () = assert!(
+    WIDTH % 4 == 0,
+    "the slab test takes children four at a time"
+);
 
 /// `1 + 2 gamma(4)`: the relative enlargement of far distances.
 const WIDEN: f32 = {
@@ -63,7 +66,7 @@ struct SlabRay {
     o_far: [Vec4; 3],
     /// Reciprocal direction.
     inv: [Vec4; 3],
-    /// Index in [`Node4::planes`] of each axis's near plane (`a` when the
+    /// Index in [`Node::planes`] of each axis's near plane (`a` when the
     /// direction's component is positive, `3 + a` when negative, `-0`
     /// included), and of its far plane.
     near: [usize; 3],
@@ -116,19 +119,30 @@ impl SlabRay {
     /// (relative errors of 1e-4 were observed). Culling on the full entry
     /// distance would then skip a hit the naive backend reports.
     #[inline(always)]
-    fn test(&self, node: &Node4, t_max: f32) -> ([f32; WIDTH], [f32; WIDTH], u32) {
-        let mut t0 = Vec4::ZERO;
-        let mut t1 = Vec4::INFINITY;
-        let mut tn = [Vec4::ZERO; 3];
-        for (a, tn) in tn.iter_mut().enumerate() {
-            *tn = (Vec4::from(node.planes[self.near[a]]) - self.o_near[a]) * self.inv[a];
-            let tf = (Vec4::from(node.planes[self.far[a]]) - self.o_far[a]) * self.inv[a];
-            (t0, t1) = (nan_keeps_max(*tn, t0), nan_keeps_min(tf, t1));
+    fn test(&self, node: &Node, t_max: f32) -> ([f32; WIDTH], [f32; WIDTH], u32) {
+        let mut entry = [0.0; WIDTH];
+        let mut keys = [0.0; WIDTH];
+        let mut mask = 0;
+        let cull = Vec4::splat(t_max * WIDEN);
+        // four children at a time
+        for g in 0..WIDTH / 4 {
+            let lanes = g * 4..g * 4 + 4;
+            let plane = |p: usize| Vec4::from_slice(&node.planes[p][lanes.clone()]);
+            let mut t0 = Vec4::ZERO;
+            let mut t1 = Vec4::INFINITY;
+            let mut tn = [Vec4::ZERO; 3];
+            for (a, tn) in tn.iter_mut().enumerate() {
+                *tn = (plane(self.near[a]) - self.o_near[a]) * self.inv[a];
+                let tf = (plane(self.far[a]) - self.o_far[a]) * self.inv[a];
+                (t0, t1) = (nan_keeps_max(*tn, t0), nan_keeps_min(tf, t1));
+            }
+            let key = tn[self.kz];
+            let enter = t0.cmple(t1 * Vec4::splat(WIDEN));
+            mask |= (enter & key.cmple(cull)).bitmask() << (g * 4);
+            t0.write_to_slice(&mut entry[lanes.clone()]);
+            key.write_to_slice(&mut keys[lanes]);
         }
-        let key = tn[self.kz];
-        let enter = t0.cmple(t1 * Vec4::splat(WIDEN));
-        let mask = (enter & key.cmple(Vec4::splat(t_max * WIDEN))).bitmask();
-        (t0.to_array(), key.to_array(), mask)
+        (entry, keys, mask)
     }
 }
 
@@ -329,7 +343,7 @@ mod tests {
             min: Vec3A::ZERO,
             max: Vec3A::ONE,
         };
-        let mut node = Node4::EMPTY;
+        let mut node = Node::EMPTY;
         node.set(0, &cube, ChildRef::leaf(0, 1));
         let wr = WatertightRay::new(&ray);
         let (t, key, mask) = SlabRay::new(&ray, &wr, &cube).test(&node, ray.t_max);
