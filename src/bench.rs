@@ -1,8 +1,15 @@
 //! `embertrace bench`: for each backend, the build time, memory per triangle,
 //! and Mrays/s for camera, shadow, diffuse and random rays, single-threaded
 //! and on all cores. Every figure is the median of `reps` repetitions, and
-//! every backend traces the same ray sets in the same process, so the table
-//! compares backends side by side.
+//! every backend traces the same ray sets in the same process.
+//!
+//! Backends take turns within each repetition (build A, build B, build A,
+//! ...; then A's camera rays, B's camera rays, A's again, ...), so a slow
+//! spell of a shared machine falls on both sides of a comparison instead of
+//! on one backend's whole row. Each backend after the first also gets its
+//! ratios to the first: the median over repetitions of the ratio of the two
+//! figures measured back to back, which drifts less than the ratio of two
+//! medians.
 
 use crate::accel::{self, AccelOptions, Accelerator, Backend};
 use crate::error::{Error, Result};
@@ -34,6 +41,12 @@ pub struct KindResult {
     /// Hits (closest-hit kinds) or occluded rays (shadow): a checksum that the
     /// backends must share.
     pub hits: usize,
+    /// Median over repetitions of this backend's single-threaded Mrays/s
+    /// divided by the first backend's, measured back to back (null for the
+    /// first backend).
+    pub ratio_single: Option<f64>,
+    /// The same for all threads.
+    pub ratio_all: Option<f64>,
 }
 
 /// One backend's row.
@@ -43,6 +56,9 @@ pub struct BackendResult {
     pub backend: String,
     /// Median build seconds.
     pub build_seconds: f64,
+    /// Median over repetitions of this backend's build time divided by the
+    /// first backend's, built back to back (null for the first backend).
+    pub build_ratio: Option<f64>,
     /// Bytes held by the structure.
     pub memory_bytes: usize,
     /// Bytes per triangle.
@@ -141,46 +157,74 @@ pub fn run(
         .collect();
     drop(generator);
     let tris = scene.triangle_count().max(1);
-    let mut rows = Vec::new();
-    for &backend in &settings.backends {
-        progress(&format!("{backend}: building {reps} times"));
-        let mut build_times = Vec::new();
-        let mut accel: Option<Box<dyn Accelerator>> = None;
-        for _ in 0..reps {
-            drop(accel.take()); // free the previous build before timing the next
+    let backends = &settings.backends;
+    let names = backends
+        .iter()
+        .map(|b| b.name())
+        .collect::<Vec<_>>()
+        .join(", ");
+    progress(&format!(
+        "building {names}: {reps} times each, taking turns"
+    ));
+    let mut build_times = vec![Vec::new(); backends.len()];
+    let mut accels: Vec<Option<Box<dyn Accelerator>>> = backends.iter().map(|_| None).collect();
+    for _ in 0..reps {
+        for (i, &backend) in backends.iter().enumerate() {
+            drop(accels[i].take()); // free the previous build before timing the next
             let t = Instant::now();
             let a = accel::build(backend, scene.soup(), settings.options)?;
-            build_times.push(t.elapsed().as_secs_f64());
-            accel = Some(a);
+            build_times[i].push(t.elapsed().as_secs_f64());
+            accels[i] = Some(a);
         }
-        let accel = accel.expect("reps >= 1 builds at least once");
-        let memory = accel.memory_bytes();
-        let mut kinds = Vec::new();
-        for set in &sets {
-            progress(&format!("{backend}: {} rays x {reps}", set.kind));
-            let mut single = Vec::new();
-            let mut all = Vec::new();
-            let mut hits = 0;
-            for _ in 0..reps {
+    }
+    let accels: Vec<Box<dyn Accelerator>> = accels
+        .into_iter()
+        .map(|a| a.expect("reps >= 1 builds every backend"))
+        .collect();
+    // per backend, per kind: single- and all-thread Mrays/s of each repetition
+    let mut single = vec![vec![Vec::new(); sets.len()]; backends.len()];
+    let mut all = single.clone();
+    let mut hits = vec![vec![0; sets.len()]; backends.len()];
+    for (k, set) in sets.iter().enumerate() {
+        progress(&format!(
+            "{} rays x {reps}, backends taking turns",
+            set.kind
+        ));
+        for _ in 0..reps {
+            for (i, accel) in accels.iter().enumerate() {
                 let t = Instant::now();
-                hits = trace(accel.as_ref(), set);
-                single.push(set.rays.len() as f64 / t.elapsed().as_secs_f64() / 1e6);
+                hits[i][k] = trace(accel.as_ref(), set);
+                single[i][k].push(set.rays.len() as f64 / t.elapsed().as_secs_f64() / 1e6);
                 let t = Instant::now();
                 let h = pool.install(|| trace_parallel(accel.as_ref(), set));
-                all.push(set.rays.len() as f64 / t.elapsed().as_secs_f64() / 1e6);
-                debug_assert_eq!(h, hits);
+                all[i][k].push(set.rays.len() as f64 / t.elapsed().as_secs_f64() / 1e6);
+                debug_assert_eq!(h, hits[i][k]);
             }
-            kinds.push(KindResult {
+        }
+    }
+    let mut rows = Vec::new();
+    for (i, accel) in accels.iter().enumerate() {
+        let memory = accel.memory_bytes();
+        let ratio = |v: &[f64], first: &[f64]| {
+            (i > 0).then(|| median(v.iter().zip(first).map(|(a, b)| a / b).collect()))
+        };
+        let kinds = sets
+            .iter()
+            .enumerate()
+            .map(|(k, set)| KindResult {
                 kind: set.kind.to_string(),
                 rays: set.rays.len(),
-                mrays_single: median(single),
-                mrays_all: median(all),
-                hits,
-            });
-        }
+                mrays_single: median(single[i][k].clone()),
+                mrays_all: median(all[i][k].clone()),
+                hits: hits[i][k],
+                ratio_single: ratio(&single[i][k], &single[0][k]),
+                ratio_all: ratio(&all[i][k], &all[0][k]),
+            })
+            .collect();
         rows.push(BackendResult {
-            backend: backend.to_string(),
-            build_seconds: median(build_times),
+            backend: backends[i].to_string(),
+            build_seconds: median(build_times[i].clone()),
+            build_ratio: ratio(&build_times[i], &build_times[0]),
             memory_bytes: memory,
             bytes_per_triangle: memory as f64 / tris as f64,
             kinds,
@@ -221,6 +265,31 @@ impl BenchReport {
                 );
             }
             out.push('\n');
+        }
+        if let Some(first) = self.backends.first().filter(|_| self.backends.len() > 1) {
+            out += &format!(
+                "ratio to {}, median of back-to-back pairs; build time / Mrays/s 1 thread / {} threads\n",
+                first.backend, self.threads
+            );
+            for r in &self.backends[1..] {
+                out += &format!(
+                    "{:<8} {:>9} {:>9}",
+                    r.backend,
+                    format!("{:.2}x", r.build_ratio.unwrap_or(f64::NAN)),
+                    ""
+                );
+                for k in &r.kinds {
+                    out += &format!(
+                        " {:>17}",
+                        format!(
+                            "{:.2} / {:.2}",
+                            k.ratio_single.unwrap_or(f64::NAN),
+                            k.ratio_all.unwrap_or(f64::NAN)
+                        )
+                    );
+                }
+                out.push('\n');
+            }
         }
         out
     }

@@ -780,8 +780,22 @@ fn bench_prints_a_table_and_json_with_matching_checksums() {
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("b.json")).unwrap()).unwrap();
     let rows = report["backends"].as_array().unwrap();
     assert_eq!(rows.len(), embertrace::accel::Backend::available().len());
-    for row in rows {
+    for (i, row) in rows.iter().enumerate() {
         assert!(row["build_seconds"].as_f64().unwrap() >= 0.0);
+        // ratios to the first backend, which has none of its own
+        assert_eq!(row["build_ratio"].is_null(), i == 0, "{row}");
+        for k in row["kinds"].as_array().unwrap() {
+            for key in ["ratio_single", "ratio_all"] {
+                assert!(
+                    if i == 0 {
+                        k[key].is_null()
+                    } else {
+                        k[key].as_f64().unwrap() > 0.0
+                    },
+                    "{key}: {k}"
+                );
+            }
+        }
         assert!(row["bytes_per_triangle"].as_f64().unwrap() > 0.0);
         let kinds: Vec<&str> = row["kinds"]
             .as_array()
