@@ -120,13 +120,10 @@ impl Bvh {
                 } else {
                     Aabb::EMPTY
                 };
-                PrimRef {
-                    bounds,
-                    id: i as u32,
-                }
+                PrimRef::new(&bounds, i as u32)
             })
             .collect();
-        prims.retain(|p| !p.bounds.is_empty());
+        prims.retain(|p| !p.bounds().is_empty());
         if prims.len() > MAX_TRIANGLES {
             return Err(too_many());
         }
@@ -151,7 +148,7 @@ impl Bvh {
                 let mut b = Tri4::default();
                 for l in 0..4 {
                     let p = &leaf[if l < leaf.len() { l } else { 0 }];
-                    b.set(l, corners(&soup.indices[p.id as usize]), p.id);
+                    b.set(l, corners(&soup.indices[p.id() as usize]), p.id());
                 }
                 b
             })
