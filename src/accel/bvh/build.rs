@@ -239,15 +239,32 @@ impl<const B: usize> Bins<B> {
     }
 }
 
-/// Bin index of a doubled centroid coordinate `c` (`lo` and `scale` from the
-/// centroid bounds); the same function places triangles when binning and
-/// when partitioning, so the counts the SAH saw are the counts it gets.
+/// Adding this to a float in `[0, 2^23)` rounds it to an integer that is
+/// then the low bits of the sum's mantissa.
+const ROUND: f32 = 8_388_608.0; // 2^23
+
+/// Bin index of a doubled centroid coordinate `c`, with `lo` and `scale`
+/// from the centroid bounds: `(c - lo) * scale - 0.5` clamped to
+/// `[0, bins - 1]` and rounded to nearest, the truncation `floor((c - lo) *
+/// scale)` but for ties, without a float-to-integer conversion (whose
+/// saturation fix-ups made it the binning loop's bottleneck). [`bins_of`]
+/// does the same arithmetic lane by lane, so the counts the SAH saw when
+/// binning are the counts the partition gets.
 #[inline(always)]
 fn bin_of(c: f32, lo: f32, scale: f32, bins: usize) -> usize {
-    // c >= lo, so the product is >= 0 (and below `bins`, but for rounding);
-    // `as` saturates, and a 32-bit conversion is one instruction where a
-    // 64-bit one takes a dozen
-    (((c - lo) * scale) as i32 as usize).min(bins - 1)
+    let x = ((c - lo) * scale - 0.5).max(0.0).min((bins - 1) as f32);
+    ((x + ROUND).to_bits() & 0xffff) as usize
+}
+
+/// [`bin_of`] on the three axes at once, in vector operations.
+#[inline(always)]
+fn bins_of(c: Vec3A, lo: Vec3A, scale: Vec3A, bins: usize) -> [usize; 3] {
+    let x = ((c - lo) * scale - Vec3A::splat(0.5))
+        .max(Vec3A::ZERO)
+        .min(Vec3A::splat((bins - 1) as f32));
+    (x + Vec3A::splat(ROUND))
+        .to_array()
+        .map(|v| (v.to_bits() & 0xffff) as usize)
 }
 
 /// A split candidate: its SAH cost, the plan, and how many triangles go left.
@@ -275,9 +292,8 @@ fn binned_plan<const B: usize>(prims: &[PrimRef], info: &Info) -> Option<Candida
     let bin_chunk = |c: &[PrimRef]| {
         let mut bins = Bins::<B>::empty();
         for p in c {
-            let ctr = p.center2();
-            for a in 0..3 {
-                let i = bin_of(ctr[a], lo[a], scale[a], B);
+            let idx = bins_of(p.center2(), lo, scale, B);
+            for (a, &i) in idx.iter().enumerate() {
                 bins.bounds[a][i] = bins.bounds[a][i].union(&p.bounds());
                 bins.count[a][i] += 1;
             }
@@ -793,5 +809,33 @@ mod tests {
             assert_eq!(p.center2(), b.min + b.max);
         }
         assert!(PrimRef::new(&Aabb::EMPTY, 7).bounds().is_empty());
+    }
+
+    #[test]
+    fn vector_and_scalar_bins_agree_and_follow_the_floor() {
+        // centroids spread over [lo, lo + extent] on each axis, ends included
+        let lo = Vec3A::new(-3.0, 0.25, 1e-3);
+        let extent = Vec3A::new(6.0, 1e-4, 7e3);
+        let scale = Vec3A::from_array(extent.to_array().map(|e| BINS as f32 * (1.0 - 1e-6) / e));
+        let mut last = [0usize; 3];
+        for k in 0..=1000 {
+            let c = lo + extent * (k as f32 / 1000.0);
+            let v = bins_of(c, lo, scale, BINS);
+            for a in 0..3 {
+                let s = bin_of(c[a], lo[a], scale[a], BINS);
+                assert_eq!(v[a], s, "axis {a} at {c}");
+                assert!(s < BINS && s >= last[a], "in range and monotone");
+                let y = (c[a] - lo[a]) * scale[a];
+                // the floor, but for ties at whole numbers, which may go down
+                assert!(
+                    s == (y.floor() as usize).min(BINS - 1) || y == y.floor(),
+                    "{y} -> {s}"
+                );
+                last[a] = s;
+            }
+        }
+        // the ends land in the first and last bins
+        assert_eq!(bins_of(lo, lo, scale, BINS), [0; 3]);
+        assert_eq!(bins_of(lo + extent, lo, scale, BINS), [BINS - 1; 3]);
     }
 }
