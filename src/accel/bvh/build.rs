@@ -20,7 +20,8 @@
 //! largest-area part that is not a leaf is split once more (Wald et al.,
 //! "Getting Rid of Packets", RT 2008; Embree's BVH4 and BVH8 open the
 //! largest child the same way). Subtrees of more than
-//! [`PARALLEL_MIN`] triangles are built in parallel with rayon.
+//! [`PARALLEL_MIN`] triangles are built in parallel with rayon, and the
+//! binning and partitioning of large ranges are parallel too.
 //!
 //! Depth bound. Every path through a node crosses at least [`LEVELS`] binary
 //! levels unless it ends in a leaf, so the depth in nodes is at most
@@ -61,6 +62,8 @@ pub const PARALLEL_MIN: usize = 4096;
 /// Ranges at least this large are binned (and bounded) in parallel.
 const PARALLEL_BIN_MIN: usize = 1 << 15;
 const CHUNK: usize = 1 << 13;
+/// Ranges at least this large are partitioned in parallel.
+const PARALLEL_PARTITION_MIN: usize = 1 << 16;
 
 /// A triangle during the build: its bounds and original index, in 32 bytes
 /// (the index rides in the unused fourth lane of the lower corner, as in
@@ -525,7 +528,7 @@ impl<'a> Item<'a> {
                 bins,
                 bin,
             } => {
-                let (mid, l, r) = partition(self.prims, |p| {
+                let (mid, l, r) = par_partition(self.prims, &|p: &PrimRef| {
                     bin_of(p.center2()[axis], lo, scale, bins) < bin
                 });
                 (mid, Some((l, r)))
@@ -551,6 +554,31 @@ impl<'a> Item<'a> {
             (make(l, offset, li), make(r, offset + mid, ri))
         }
     }
+}
+
+/// [`partition`], in parallel for large ranges: both halves are partitioned
+/// at once, then the right part of the first and the left part of the
+/// second trade places (the smaller one swaps with the far end of the
+/// other). The order depends on the range's length only, not on timing.
+fn par_partition(
+    prims: &mut [PrimRef],
+    left: &(impl Fn(&PrimRef) -> bool + Sync),
+) -> (usize, Info, Info) {
+    let n = prims.len();
+    if n < PARALLEL_PARTITION_MIN {
+        return partition(prims, left);
+    }
+    let h = n / 2;
+    let (a, b) = prims.split_at_mut(h);
+    let ((ma, la, ra), (mb, lb, rb)) =
+        rayon::join(|| par_partition(a, left), || par_partition(b, left));
+    let k = (h - ma).min(mb);
+    let (x, y) = prims.split_at_mut(h);
+    x[ma..ma + k]
+        .par_chunks_mut(CHUNK)
+        .zip(y[mb - k..mb].par_chunks_mut(CHUNK))
+        .for_each(|(p, q)| p.swap_with_slice(q));
+    (ma + mb, la.merge(lb), ra.merge(rb))
 }
 
 /// In-place partition: the elements for which `left` holds first. Returns
@@ -809,6 +837,38 @@ mod tests {
             assert_eq!(p.center2(), b.min + b.max);
         }
         assert!(PrimRef::new(&Aabb::EMPTY, 7).bounds().is_empty());
+    }
+
+    #[test]
+    fn parallel_partition_matches_the_serial_one() {
+        // 2.5 times the parallel threshold, so the halves are uneven
+        let n = PARALLEL_PARTITION_MIN * 5 / 2;
+        let prims: Vec<PrimRef> = (0..n as u32)
+            .map(|i| {
+                // scattered centroids: a multiplicative hash of the index
+                let x = (i.wrapping_mul(2_654_435_761) >> 8) as f32 / (1 << 24) as f32;
+                let c = Vec3::new(x, 1.0 - x, (i % 7) as f32);
+                PrimRef::new(&Aabb::of_triangle(&[c, c + Vec3::X, c + Vec3::Y]), i)
+            })
+            .collect();
+        let left = |p: &PrimRef| p.center2().x < 1.37;
+        let (mut par, mut ser) = (prims.clone(), prims);
+        let (m, pl, pr) = par_partition(&mut par, &left);
+        let (ms, sl, sr) = partition(&mut ser, left);
+        assert_eq!(m, ms);
+        assert!(0 < m && m < n);
+        assert!(par[..m].iter().all(left) && !par[m..].iter().any(left));
+        for (a, b) in [(pl, sl), (pr, sr)] {
+            assert_eq!((a.bounds, a.centers), (b.bounds, b.centers));
+        }
+        // the same triangles on each side
+        let ids = |s: &[PrimRef]| {
+            let mut v: Vec<u32> = s.iter().map(PrimRef::id).collect();
+            v.sort_unstable();
+            v
+        };
+        assert_eq!(ids(&par[..m]), ids(&ser[..m]));
+        assert_eq!(ids(&par[m..]), ids(&ser[m..]));
     }
 
     #[test]
