@@ -6,7 +6,13 @@
 //! - [`BvhQuality::Fast`]: binned SAH (Wald, "On fast Construction of
 //!   SAH-based Bounding Volume Hierarchies", IEEE RT 2007) with [`BINS`]
 //!   bins on each of the three axes of the centroid bounds, binning in
-//!   parallel for large ranges.
+//!   parallel for large ranges. Ranges of more than 2^[`SAMPLE_SHIFT`]
+//!   triangles bin an evenly strided sample of about that many (the bins'
+//!   counts scaled back up): the split plane is chosen from the sample, the
+//!   partition that follows is exact. On the 1.2M-triangle benchmark scene
+//!   this cut the build from 545 to 386 ms with no measurable change in
+//!   Mrays/s on any ray kind (median of 3 alternating runs of `bench`;
+//!   2^12 cost 2.6% on camera rays of a rougher scene).
 //! - [`BvhQuality::High`]: a full sweep over the centroids sorted on each
 //!   axis (every split position is evaluated) for ranges of up to
 //!   [`SWEEP_MAX`] triangles, [`HIGH_BINS`] bins above that.
@@ -64,6 +70,9 @@ const PARALLEL_BIN_MIN: usize = 1 << 15;
 const CHUNK: usize = 1 << 13;
 /// Ranges at least this large are partitioned in parallel.
 const PARALLEL_PARTITION_MIN: usize = 1 << 16;
+/// The `Fast` build's binning samples about 2^`SAMPLE_SHIFT` triangles of
+/// larger ranges (see the module documentation).
+pub const SAMPLE_SHIFT: usize = 13;
 
 /// A triangle during the build: its bounds and original index, in 32 bytes
 /// (the index rides in the unused fourth lane of the lower corner, as in
@@ -278,7 +287,9 @@ struct Candidate {
 }
 
 /// The best binned split of a range, or `None` when all centroids coincide.
-fn binned_plan<const B: usize>(prims: &[PrimRef], info: &Info) -> Option<Candidate> {
+/// With `sample`, a range of more than 2^[`SAMPLE_SHIFT`] triangles bins a
+/// strided sample, and the candidate's count on the left is an estimate.
+fn binned_plan<const B: usize>(prims: &[PrimRef], info: &Info, sample: bool) -> Option<Candidate> {
     let lo = info.centers.min;
     let extent = info.centers.max - lo;
     // scale so that the largest centroid lands in the last bin
@@ -292,9 +303,14 @@ fn binned_plan<const B: usize>(prims: &[PrimRef], info: &Info) -> Option<Candida
     if scale == Vec3A::ZERO {
         return None;
     }
+    let stride = if sample {
+        (prims.len() >> SAMPLE_SHIFT).max(1)
+    } else {
+        1
+    };
     let bin_chunk = |c: &[PrimRef]| {
         let mut bins = Bins::<B>::empty();
-        for p in c {
+        for p in c.iter().step_by(stride) {
             let idx = bins_of(p.center2(), lo, scale, B);
             for (a, &i) in idx.iter().enumerate() {
                 bins.bounds[a][i] = bins.bounds[a][i].union(&p.bounds());
@@ -303,9 +319,9 @@ fn binned_plan<const B: usize>(prims: &[PrimRef], info: &Info) -> Option<Candida
         }
         bins
     };
-    let bins = if prims.len() >= PARALLEL_BIN_MIN {
+    let bins = if prims.len() >= PARALLEL_BIN_MIN * stride {
         prims
-            .par_chunks(CHUNK)
+            .par_chunks(CHUNK * stride)
             .map(bin_chunk)
             .reduce(Bins::empty, Bins::merge)
     } else {
@@ -324,7 +340,7 @@ fn binned_plan<const B: usize>(prims: &[PrimRef], info: &Info) -> Option<Candida
         let mut n = 0;
         for b in (1..B).rev() {
             acc = acc.union(&bins.bounds[axis][b]);
-            n += bins.count[axis][b] as usize;
+            n += bins.count[axis][b] as usize * stride;
             right_area[b] = acc.half_area();
             right_count[b] = n;
         }
@@ -332,7 +348,7 @@ fn binned_plan<const B: usize>(prims: &[PrimRef], info: &Info) -> Option<Candida
         let mut nl = 0;
         for b in 1..B {
             left = left.union(&bins.bounds[axis][b - 1]);
-            nl += bins.count[axis][b - 1] as usize;
+            nl += bins.count[axis][b - 1] as usize * stride;
             let nr = right_count[b];
             if nl == 0 || nr == 0 {
                 continue;
@@ -496,9 +512,14 @@ impl<'a> Item<'a> {
         };
         let best = match quality {
             _ if n <= SMALL => sweep_plan(self.prims, &self.info),
-            BvhQuality::Fast => binned_plan::<BINS>(self.prims, &self.info),
+            // the depth bound needs exact counts only where a half could
+            // exceed the capacity one level down
+            BvhQuality::Fast => {
+                let sample = n <= capacity(self.depth + 1);
+                binned_plan::<BINS>(self.prims, &self.info, sample)
+            }
             BvhQuality::High if n <= SWEEP_MAX => sweep_plan(self.prims, &self.info),
-            BvhQuality::High => binned_plan::<HIGH_BINS>(self.prims, &self.info),
+            BvhQuality::High => binned_plan::<HIGH_BINS>(self.prims, &self.info, false),
         };
         let Some(best) = best else {
             // every centroid equal: split by count if the leaf would be too big

@@ -171,6 +171,31 @@ fn depth_bound_holds_for_skewed_input() {
 }
 
 #[test]
+fn sampled_binning_keeps_the_depth_bound_and_the_answers() {
+    // Like the test above, with 100 triangles a binade (20k in all): the top
+    // ranges are large enough for the Fast build to bin a sample, and the
+    // deep ones large enough for the depth bound to need exact counts.
+    let mut soup = Soup::default();
+    for k in 0..200 {
+        let e = 2f32.powi(k - 100);
+        for j in 0..100 {
+            let o = Vec3::new(j as f32 * 1e-2 * e, 0.0, j as f32 * 1e-3 * e);
+            soup.tri(o, o + Vec3::X * e, o + Vec3::Y * e);
+        }
+    }
+    assert!(soup.i.len() > 2 << build::SAMPLE_SHIFT);
+    let st = soup.bvh(BvhQuality::Fast).stats();
+    assert!(
+        st.depth <= build::MAX_DEPTH.div_ceil(node::LEVELS),
+        "{st:?}"
+    );
+    let mut s = Sampler::new(4, 0, 0);
+    let mut rays = random_rays(&mut s, 400, Vec3::ZERO, 2.0);
+    rays.push(Ray::new(Vec3::new(1e-31, 1e-31, 1.0), -Vec3::Z));
+    assert_parity(&soup, &rays);
+}
+
+#[test]
 fn huge_sliver_seen_from_afar_matches_naive() {
     // Found by the adversarial search below: the watertight test's `t` for
     // this 52214 x 0.5 sliver is 12 units (1.3e-4) short of the true 89796.5,
