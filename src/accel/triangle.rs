@@ -6,7 +6,11 @@
 //! are recomputed in `f64`, as the paper recommends. There is no determinant
 //! epsilon: thin triangles are hit; only exactly degenerate ones (`det == 0`)
 //! are not. A hit whose `t` is not conservatively positive (within the
-//! rounding-error bound of `t`, pbrt-v4 section 6.8.4) is rejected.
+//! rounding-error bound of `t`, pbrt-v4 section 6.8.4) is rejected; the
+//! bound's edge-function term uses the spread of the corners' distances
+//! where pbrt-v4 uses their largest value, which is the same where
+//! self-intersection can happen and keeps small, distant triangles hit
+//! (see [`WatertightRay::intersect4`]).
 
 use super::Hit;
 use crate::math::{Ray, Vec3, gamma};
@@ -193,8 +197,19 @@ impl WatertightRay {
         let delta_e =
             Vec4::splat(2.0) * (g(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
         let max_e = u.abs().max(v.abs()).max(w.abs());
+        // The edge functions' errors move t as weights move an average: t
+        // is the average of the corners' z weighted by u, v, w (which sum to
+        // det), so with errors du, dv, dw the exact identity
+        //   t' - t = (du (az - t) + dv (bz - t) + dw (cz - t)) / det'
+        // holds, and |z - t| is at most the spread of the corners' z when
+        // the hit lies inside. pbrt-v4 bounds it by max |z|: the same where
+        // the corners straddle the origin's plane (where self-intersection
+        // happens), but 500 times too loose for a small triangle far away,
+        // whose hits it then rejects as "not certainly positive" (a 5e-3
+        // sliver 1.3 away, hit squarely at t = 1.318, got delta_t = 3).
+        let spread = az.max(bz).max(cz) - az.min(bz).min(cz) + Vec4::splat(2.0) * delta_z;
         let delta_t = Vec4::splat(3.0)
-            * (g(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
+            * (g(3) * max_e * max_zt + delta_e * spread.min(max_zt) + delta_z * max_e)
             * inv.abs();
         keep &= t.cmpgt(delta_t);
         Hits4 {
@@ -416,6 +431,24 @@ mod tests {
         let mut t_max = best.unwrap().t;
         hits.fold_closest(&block, &mut best, &mut t_max);
         assert_eq!(best.map(|h| h.prim), Some(1));
+    }
+
+    #[test]
+    fn a_small_sliver_far_away_is_hit() {
+        // A sliver at the pole of the 1.2M-triangle benchmark sphere (4.7e-3
+        // long, 3e-5 wide), met squarely by a shadow ray 1.318 away (exact
+        // barycentrics 0.865, 0.123, 0.012 in rational arithmetic): pbrt-v4's
+        // bound on t was 3 and rejected it; Embree reports it
+        let o = Vec3::new(0.3717262, -0.110167295, 1.2371176);
+        let d = Vec3::new(-0.2816396, 0.19782123, -0.9389068);
+        let r = WatertightRay::new(&Ray::new(o, d));
+        let p = [
+            Vec3::new(-6.551138e-8, 0.15063721, 0.0),
+            Vec3::new(0.0039254026, 0.15005273, -0.0025896206),
+            Vec3::new(0.003941596, 0.15004653, -0.0025649772),
+        ];
+        let h = r.intersect(p[0], p[1], p[2], f32::INFINITY).expect("hit");
+        assert!((h.t - 1.3179863).abs() < 1e-6, "{h:?}");
     }
 
     #[test]
