@@ -1,20 +1,28 @@
 //! `embertrace parity`: identical ray sets through every backend, each
 //! compared with a reference backend ray by ray, and the same render through
-//! each. Every disagreement is classified:
+//! each. Every disagreement is classified by the primitive in dispute: the
+//! nearer of two different answers, which the other backend passed by.
 //!
-//! - `vertex`: the hit lies within `1e-4` (barycentric) of a triangle vertex;
-//! - `edge`: within `1e-4` of an edge, or the two answers are triangles that
-//!   share an edge or vertex at the same distance;
-//! - `grazing`: the ray meets the triangle at `|cos| < 1e-3`;
-//! - `degenerate`: a sliver triangle (area below `1e-6` of its longest edge
-//!   squared), where rounding decides;
+//! - `vertex`, `edge`: the ray's line crosses the disputed triangle within
+//!   the `f32` rounding tolerance of two edges, or one (barycentrics computed
+//!   in `f64`, tolerance `gamma(16) (R + L) L / |(p1 - p0) x (p2 - p0) . d|`
+//!   for corners at most `R` from the origin and edges at most `L` long, see
+//!   [`exact_crossing`]); or the two answers are triangles at the same
+//!   distance that share an edge or vertex;
+//! - `tie`: two triangles both met squarely at the same distance
+//!   (coplanar overlaps), where each backend's tie rule picks one;
+//! - `grazing`: the ray meets the disputed primitive at `|cos| < 1e-3`;
+//! - `degenerate`: the disputed triangle is a sliver (area below `1e-6` of
+//!   its longest edge squared), where rounding decides;
 //! - `extent`: a shadow ray whose first hit lies within `1e-4` (relative) of
 //!   its `t_max`, so the query's own rounding decides;
 //! - `precision`: a distance disagreement on the same triangle within the
-//!   `f32` error bound of the distance (`gamma(16) R / |cos|`, `R` the
-//!   farthest corner from the origin): a triangle large next to the hit
-//!   distance cannot fix `t` more finely in either backend;
-//! - `unexplained`: anything else. `parity` exits non-zero if any exists.
+//!   `f32` error bound of the distance (`gamma(16) R / |cos|`): a triangle
+//!   large next to the hit distance cannot fix `t` more finely in either
+//!   backend;
+//! - `unexplained`: anything else, in particular a triangle hit squarely by
+//!   one backend and passed by the other. `parity` exits non-zero if any
+//!   exists.
 //!
 //! Distances disagree when `|t_a - t_b| > 1e-5 * max(1, t)` (hard case 11).
 
@@ -22,7 +30,7 @@ use crate::accel::triangle::distance_error_bound;
 use crate::accel::{self, AccelOptions, Accelerator, Backend, Hit};
 use crate::error::{Error, Result};
 use crate::integrator::{IntegratorSettings, PathTracer};
-use crate::math::{Ray, triangle_normal};
+use crate::math::{Ray, Vec3, gamma, triangle_normal};
 use crate::raysets::{self, RayKind};
 use crate::render::{RenderSettings, render};
 use crate::sampler::SamplerKind;
@@ -31,8 +39,6 @@ use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
-/// Barycentric distance below which a hit counts as on an edge or vertex.
-pub const EDGE_EPS: f32 = 1e-4;
 /// `|cos|` below which a ray grazes a triangle.
 pub const GRAZING_COS: f32 = 1e-3;
 
@@ -98,25 +104,79 @@ pub struct ParityReport {
     pub unexplained: usize,
 }
 
-fn barycentric_class(scene: &Scene, h: &Hit) -> Option<&'static str> {
+/// Where a ray's line meets a triangle: barycentrics computed in `f64` from
+/// the `f32` inputs (exact to far below `f32` rounding), and how far an
+/// `f32` test may misplace them.
+#[derive(Debug, Clone, Copy)]
+struct ExactCrossing {
+    /// Barycentrics of the three corners (summing to 1); all `>= 0` inside.
+    b: [f64; 3],
+    /// The rounding scale of `f32` barycentrics for this ray and triangle.
+    tolerance: f64,
+}
+
+/// The line of `ray` against triangle `p`, or `None` when the line is
+/// parallel to it (the triangle is seen edge-on).
+///
+/// Tolerance: both kinds of `f32` test in use work on the corners relative
+/// to the origin, whose rounding moves each corner by up to `eps R` (`R` the
+/// farthest corner's distance): the watertight test's sheared coordinates
+/// carry `gamma(5) (|x| + |z|)`, Embree's robust Pluecker test its
+/// `v_i - o`; both then form edge functions of size `L` (the longest edge)
+/// times those coordinates, so each edge function is off by a few `eps (R
+/// + L) L`, against a sum of `|(p1 - p0) x (p2 - p0) . d|`. The tolerance
+/// is `gamma(16) (R + L) L / |(p1 - p0) x (p2 - p0) . d|`: large for a
+/// small triangle far away, a sliver, or a grazing ray, where rounding
+/// decides which side of an edge the ray passes.
+fn exact_crossing(p: [Vec3; 3], ray: &Ray) -> Option<ExactCrossing> {
+    let v = |a: Vec3| glam::DVec3::new(a.x as f64, a.y as f64, a.z as f64);
+    let (p0, p1, p2, o) = (v(p[0]), v(p[1]), v(p[2]), v(ray.o));
+    let d = v(ray.d).normalize();
+    let (e1, e2) = (p1 - p0, p2 - p0);
+    let q = d.cross(e2);
+    let det = e1.dot(q);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let s = o - p0;
+    let u = s.dot(q) / det;
+    let w = d.dot(s.cross(e1)) / det;
+    let r = [p0, p1, p2]
+        .iter()
+        .map(|c| (*c - o).length())
+        .fold(0.0, f64::max);
+    let l = e1.length().max(e2.length()).max((p2 - p1).length());
+    Some(ExactCrossing {
+        b: [1.0 - u - w, u, w],
+        tolerance: gamma(16) as f64 * (r + l) * l / det.abs(),
+    })
+}
+
+/// How a ray passes a triangle one backend reported and the other did not
+/// (the nearer of two different answers): `Some("vertex")` or
+/// `Some("edge")` when it passes within the rounding tolerance of two
+/// edges or one, so rounding decides whether it hits; `None` when it hits
+/// squarely or misses clearly, so one backend is wrong.
+fn crossing_class(scene: &Scene, ray: &Ray, h: &Hit) -> Option<&'static str> {
     if scene.sphere(h.prim).is_some() {
         return None;
     }
-    let b = [1.0 - h.u - h.v, h.u, h.v];
-    let near = b.iter().filter(|&&x| x.abs() < EDGE_EPS).count();
-    match near {
+    let c = exact_crossing(scene.triangle(h.prim), ray)?;
+    match c.b.iter().filter(|x| x.abs() <= c.tolerance).count() {
         0 => None,
         1 => Some("edge"),
         _ => Some("vertex"),
     }
 }
 
-fn share_corner(scene: &Scene, a: u32, b: u32) -> bool {
+/// How many corners triangles `a` and `b` share (0 when either is a
+/// sphere).
+fn shared_corners(scene: &Scene, a: u32, b: u32) -> usize {
     if scene.sphere(a).is_some() || scene.sphere(b).is_some() {
-        return false;
+        return 0;
     }
     let pa = scene.triangle(a);
-    scene.triangle(b).iter().any(|p| pa.contains(p))
+    scene.triangle(b).iter().filter(|p| pa.contains(p)).count()
 }
 
 fn tri_class(scene: &Scene, ray: &Ray, h: &Hit) -> Option<&'static str> {
@@ -133,32 +193,58 @@ fn tri_class(scene: &Scene, ray: &Ray, h: &Hit) -> Option<&'static str> {
     if !(area2 > 1e-6 * longest) {
         return Some("degenerate");
     }
-    if let Some(n) = triangle_normal(p0, p1, p2) {
-        if n.dot(ray.d).abs() < GRAZING_COS {
-            return Some("grazing");
-        }
+    match triangle_normal(p0, p1, p2) {
+        Some(n) if n.dot(ray.d).abs() >= GRAZING_COS => None,
+        _ => Some("grazing"),
     }
-    None
 }
 
+/// Classify a hit/miss or primitive disagreement between answers `a` and
+/// `b`.
+///
+/// Two triangles at the same distance (within `1e-5 max(1, t)`): the ray
+/// meets both, and rounding or each backend's tie rule picks one (Embree's
+/// is not the lowest index). That is `edge` or `vertex` when the ray meets
+/// either at an edge or vertex, or the two share one; `tie` when it meets
+/// both squarely (coplanar overlaps).
+///
+/// Otherwise the disputed primitive is the nearer answer (the other backend
+/// passed it by), and only how the ray passes it explains the disagreement
+/// (at an edge or vertex, grazing, degenerate). A backend that misses a
+/// triangle hit squarely, or hits one missed clearly, is unexplained
+/// whatever the other answer looks like.
 fn classify(scene: &Scene, ray: &Ray, a: Option<Hit>, b: Option<Hit>) -> &'static str {
-    let hits: Vec<Hit> = [a, b].into_iter().flatten().collect();
-    for h in &hits {
-        if let Some(c) = barycentric_class(scene, h) {
-            return c;
+    let class = match (a, b) {
+        (Some(x), Some(y)) if !far_enough(x.t, y.t) => crossing_class(scene, ray, &x)
+            .or_else(|| crossing_class(scene, ray, &y))
+            .or(match shared_corners(scene, x.prim, y.prim) {
+                0 => None,
+                1 => Some("vertex"),
+                _ => Some("edge"),
+            })
+            .or_else(|| (crosses(scene, ray, &x) && crosses(scene, ray, &y)).then_some("tie"))
+            .or_else(|| tri_class(scene, ray, &x))
+            .or_else(|| tri_class(scene, ray, &y)),
+        (Some(x), Some(y)) => {
+            let nearer = if x.t <= y.t { x } else { y };
+            crossing_class(scene, ray, &nearer).or_else(|| tri_class(scene, ray, &nearer))
         }
-    }
-    if let (Some(x), Some(y)) = (a, b) {
-        if x.prim != y.prim && share_corner(scene, x.prim, y.prim) {
-            return "edge";
+        (Some(x), None) | (None, Some(x)) => {
+            crossing_class(scene, ray, &x).or_else(|| tri_class(scene, ray, &x))
         }
+        (None, None) => None,
+    };
+    class.unwrap_or("unexplained")
+}
+
+/// Whether the ray's line crosses triangle `h.prim` (every barycentric at
+/// least minus its rounding tolerance); spheres count as crossed.
+fn crosses(scene: &Scene, ray: &Ray, h: &Hit) -> bool {
+    if scene.sphere(h.prim).is_some() {
+        return true;
     }
-    for h in &hits {
-        if let Some(c) = tri_class(scene, ray, h) {
-            return c;
-        }
-    }
-    "unexplained"
+    exact_crossing(scene.triangle(h.prim), ray)
+        .is_some_and(|c| c.b.iter().all(|&x| x >= -c.tolerance))
 }
 
 /// Same primitive, distances within the `f32` error bound of the distance
@@ -448,6 +534,7 @@ impl ParityReport {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::accel::TriangleSoup;
     use crate::accel::naive::Naive;
     use crate::scene::procedural::{Shape, generate};
     use crate::scene::{Material, SceneBuilder, Transform};
@@ -499,5 +586,58 @@ mod tests {
             &rays,
         );
         assert!(same.classes.is_empty());
+    }
+
+    /// Rays aimed at the shared edge of a lower square pass squarely through
+    /// an upper one. A backend that forgets an upper triangle reports the
+    /// lower square's edge instead: the edge does not explain that.
+    #[test]
+    fn a_squarely_missed_triangle_is_not_excused_by_an_edge_behind_it() {
+        use crate::math::Vec3;
+        let mut m = crate::scene::MeshData {
+            materials: vec![Material::default()],
+            ..Default::default()
+        };
+        for z in [0.0, 1.0] {
+            let base = m.positions.len() as u32;
+            m.positions.extend([
+                Vec3::new(-1.0, -1.0, z),
+                Vec3::new(1.0, -1.0, z),
+                Vec3::new(1.0, 1.0, z),
+                Vec3::new(-1.0, 1.0, z),
+            ]);
+            m.indices.push([base, base + 1, base + 2]);
+            m.indices.push([base, base + 2, base + 3]);
+        }
+        m.tri_material = vec![0; 4];
+        let mut b = SceneBuilder::new(std::path::Path::new("t"));
+        b.add_mesh(m, &Transform::default());
+        let scene = b.build();
+        // the lower diagonal, from (-0.5, -0.5) to (0.5, 0.5), from above
+        let rays: Vec<Ray> = (0..101)
+            .map(|i| {
+                let s = -0.5 + i as f32 / 100.0;
+                let o = Vec3::new(s + 0.3, s - 0.2, 3.0);
+                Ray::new(o, (Vec3::new(s, s, 0.0) - o).normalize())
+            })
+            .collect();
+        let good = Naive::new(scene.soup());
+        // a backend blind to upper triangle 2 (made degenerate in its copy)
+        let soup = scene.soup();
+        let mut indices = soup.indices.to_vec();
+        indices[2] = [0, 0, 0];
+        let bad = Naive::new(TriangleSoup {
+            indices: &indices,
+            ..soup
+        });
+        let edge_hits = rays
+            .iter()
+            .filter_map(|r| bad.intersect(r))
+            .filter(|h| h.prim < 2 && h.u.min(h.v).min(1.0 - h.u - h.v) < 1e-4)
+            .count();
+        assert_eq!(edge_hits, rays.len(), "the blind backend lands on the edge");
+        let p = compare_kind(&scene, &good, &bad, RayKind::Random, &rays);
+        assert_eq!(p.primitive, rays.len(), "{p:?}");
+        assert_eq!(p.classes.get("unexplained"), Some(&rays.len()), "{p:?}");
     }
 }
