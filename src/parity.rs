@@ -123,11 +123,11 @@ struct ExactCrossing {
 /// farthest corner's distance): the watertight test's sheared coordinates
 /// carry `gamma(5) (|x| + |z|)`, Embree's robust Pluecker test its
 /// `v_i - o`; both then form edge functions of size `L` (the longest edge)
-/// times those coordinates, so each edge function is off by a few `eps (R
-/// + L) L`, against a sum of `|(p1 - p0) x (p2 - p0) . d|`. The tolerance
-/// is `gamma(16) (R + L) L / |(p1 - p0) x (p2 - p0) . d|`: large for a
-/// small triangle far away, a sliver, or a grazing ray, where rounding
-/// decides which side of an edge the ray passes.
+/// times those coordinates, so each edge function is off by a few
+/// `eps (R + L) L`, against a sum of `|(p1 - p0) x (p2 - p0) . d|`. The
+/// tolerance is `gamma(16) (R + L) L / |(p1 - p0) x (p2 - p0) . d|`: large
+/// for a small triangle far away, a sliver, or a grazing ray, where
+/// rounding decides which side of an edge the ray passes.
 fn exact_crossing(p: [Vec3; 3], ray: &Ray) -> Option<ExactCrossing> {
     let v = |a: Vec3| glam::DVec3::new(a.x as f64, a.y as f64, a.z as f64);
     let (p0, p1, p2, o) = (v(p[0]), v(p[1]), v(p[2]), v(ray.o));
