@@ -129,9 +129,8 @@ struct ExactCrossing {
 /// for a small triangle far away, a sliver, or a grazing ray, where
 /// rounding decides which side of an edge the ray passes.
 fn exact_crossing(p: [Vec3; 3], ray: &Ray) -> Option<ExactCrossing> {
-    let v = |a: Vec3| glam::DVec3::new(a.x as f64, a.y as f64, a.z as f64);
-    let (p0, p1, p2, o) = (v(p[0]), v(p[1]), v(p[2]), v(ray.o));
-    let d = v(ray.d).normalize();
+    let [p0, p1, p2] = p.map(Vec3::as_dvec3);
+    let (o, d) = (ray.o.as_dvec3(), ray.d.as_dvec3().normalize());
     let (e1, e2) = (p1 - p0, p2 - p0);
     let q = d.cross(e2);
     let det = e1.dot(q);
@@ -152,20 +151,31 @@ fn exact_crossing(p: [Vec3; 3], ray: &Ray) -> Option<ExactCrossing> {
     })
 }
 
-/// How a ray passes a triangle one backend reported and the other did not
-/// (the nearer of two different answers): `Some("vertex")` or
-/// `Some("edge")` when it passes within the rounding tolerance of two
-/// edges or one, so rounding decides whether it hits; `None` when it hits
-/// squarely or misses clearly, so one backend is wrong.
-fn crossing_class(scene: &Scene, ray: &Ray, h: &Hit) -> Option<&'static str> {
-    if scene.sphere(h.prim).is_some() {
-        return None;
+impl ExactCrossing {
+    /// Of triangle `h.prim`; `None` for a sphere or an edge-on triangle.
+    fn of(scene: &Scene, ray: &Ray, h: &Hit) -> Option<Self> {
+        scene
+            .sphere(h.prim)
+            .is_none()
+            .then(|| exact_crossing(scene.triangle(h.prim), ray))
+            .flatten()
     }
-    let c = exact_crossing(scene.triangle(h.prim), ray)?;
-    match c.b.iter().filter(|x| x.abs() <= c.tolerance).count() {
-        0 => None,
-        1 => Some("edge"),
-        _ => Some("vertex"),
+
+    /// `Some("vertex")` or `Some("edge")` when the line passes within the
+    /// tolerance of two edges or one, so rounding decides whether it hits;
+    /// `None` when it hits squarely or misses clearly.
+    fn near_edges(&self) -> Option<&'static str> {
+        match self.b.iter().filter(|x| x.abs() <= self.tolerance).count() {
+            0 => None,
+            1 => Some("edge"),
+            _ => Some("vertex"),
+        }
+    }
+
+    /// Whether the line crosses the triangle (every barycentric at least
+    /// minus the tolerance).
+    fn inside(&self) -> bool {
+        self.b.iter().all(|&x| x >= -self.tolerance)
     }
 }
 
@@ -214,37 +224,36 @@ fn tri_class(scene: &Scene, ray: &Ray, h: &Hit) -> Option<&'static str> {
 /// triangle hit squarely, or hits one missed clearly, is unexplained
 /// whatever the other answer looks like.
 fn classify(scene: &Scene, ray: &Ray, a: Option<Hit>, b: Option<Hit>) -> &'static str {
+    let near_edges = |h: &Hit| ExactCrossing::of(scene, ray, h).and_then(|c| c.near_edges());
     let class = match (a, b) {
-        (Some(x), Some(y)) if !far_enough(x.t, y.t) => crossing_class(scene, ray, &x)
-            .or_else(|| crossing_class(scene, ray, &y))
-            .or(match shared_corners(scene, x.prim, y.prim) {
-                0 => None,
-                1 => Some("vertex"),
-                _ => Some("edge"),
-            })
-            .or_else(|| (crosses(scene, ray, &x) && crosses(scene, ray, &y)).then_some("tie"))
-            .or_else(|| tri_class(scene, ray, &x))
-            .or_else(|| tri_class(scene, ray, &y)),
+        (Some(x), Some(y)) if !far_enough(x.t, y.t) => {
+            let (cx, cy) = (
+                ExactCrossing::of(scene, ray, &x),
+                ExactCrossing::of(scene, ray, &y),
+            );
+            // spheres (no crossing) count as met
+            let met = |h: &Hit, c: Option<ExactCrossing>| {
+                c.map_or(scene.sphere(h.prim).is_some(), |c| c.inside())
+            };
+            cx.and_then(|c| c.near_edges())
+                .or_else(|| cy.and_then(|c| c.near_edges()))
+                .or(match shared_corners(scene, x.prim, y.prim) {
+                    0 => None,
+                    1 => Some("vertex"),
+                    _ => Some("edge"),
+                })
+                .or_else(|| (met(&x, cx) && met(&y, cy)).then_some("tie"))
+                .or_else(|| tri_class(scene, ray, &x))
+                .or_else(|| tri_class(scene, ray, &y))
+        }
         (Some(x), Some(y)) => {
             let nearer = if x.t <= y.t { x } else { y };
-            crossing_class(scene, ray, &nearer).or_else(|| tri_class(scene, ray, &nearer))
+            near_edges(&nearer).or_else(|| tri_class(scene, ray, &nearer))
         }
-        (Some(x), None) | (None, Some(x)) => {
-            crossing_class(scene, ray, &x).or_else(|| tri_class(scene, ray, &x))
-        }
+        (Some(x), None) | (None, Some(x)) => near_edges(&x).or_else(|| tri_class(scene, ray, &x)),
         (None, None) => None,
     };
     class.unwrap_or("unexplained")
-}
-
-/// Whether the ray's line crosses triangle `h.prim` (every barycentric at
-/// least minus its rounding tolerance); spheres count as crossed.
-fn crosses(scene: &Scene, ray: &Ray, h: &Hit) -> bool {
-    if scene.sphere(h.prim).is_some() {
-        return true;
-    }
-    exact_crossing(scene.triangle(h.prim), ray)
-        .is_some_and(|c| c.b.iter().all(|&x| x >= -c.tolerance))
 }
 
 /// Same primitive, distances within the `f32` error bound of the distance
