@@ -203,10 +203,9 @@ fn tri_class(scene: &Scene, ray: &Ray, h: &Hit) -> Option<&'static str> {
     if !(area2 > 1e-6 * longest) {
         return Some("degenerate");
     }
-    match triangle_normal(p0, p1, p2) {
-        Some(n) if n.dot(ray.d).abs() >= GRAZING_COS => None,
-        _ => Some("grazing"),
-    }
+    triangle_normal(p0, p1, p2)
+        .is_some_and(|n| n.dot(ray.d).abs() < GRAZING_COS)
+        .then_some("grazing")
 }
 
 /// Classify a hit/miss or primitive disagreement between answers `a` and
