@@ -10,9 +10,10 @@
 //!   triangles bin an evenly strided sample of about that many (the bins'
 //!   counts scaled back up): the split plane is chosen from the sample, the
 //!   partition that follows is exact. On the 1.2M-triangle benchmark scene
-//!   this cut the build from 545 to 386 ms with no measurable change in
-//!   Mrays/s on any ray kind (median of 3 alternating runs of `bench`;
-//!   2^12 cost 2.6% on camera rays of a rougher scene).
+//!   this cut the build from 218 to 188 ms on two threads (median of 5
+//!   alternating runs of `bench`; 545 to 386 ms before the fix described
+//!   at [`ID_TAG`]) with no measurable change in Mrays/s on any ray kind;
+//!   2^12 cost 2.6% on camera rays of a rougher scene.
 //! - [`BvhQuality::High`]: a full sweep over the centroids sorted on each
 //!   axis (every split position is evaluated) for ranges of up to
 //!   [`SWEEP_MAX`] triangles, [`HIGH_BINS`] bins above that.
