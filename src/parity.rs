@@ -7,7 +7,7 @@
 //!   the `f32` rounding tolerance of two edges, or one (barycentrics computed
 //!   in `f64`, tolerance `gamma(16) (R + L) L / |(p1 - p0) x (p2 - p0) . d|`
 //!   for corners at most `R` from the origin and edges at most `L` long, see
-//!   [`exact_crossing`]); or the two answers are triangles at the same
+//!   `exact_crossing`); or the two answers are triangles at the same
 //!   distance that share an edge or vertex;
 //! - `tie`: two triangles both met squarely at the same distance
 //!   (coplanar overlaps), where each backend's tie rule picks one;
