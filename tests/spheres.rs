@@ -7,7 +7,9 @@
 //! `spawn_ray`) leaving outwards never sees that sphere again, and one
 //! leaving inwards finds its far side, never the near one.
 
-use embertrace::accel::{self, AccelOptions, Accelerator, Backend, Sphere, TriangleSoup};
+use embertrace::accel::{
+    self, AccelOptions, Accelerator, Backend, Coherence, Hit, Sphere, TriangleSoup,
+};
 use embertrace::math::{Ray, SurfacePoint, Vec3, spawn_ray};
 use embertrace::sampler::Sampler;
 use embertrace::sampling::square_to_uniform_sphere;
@@ -131,9 +133,11 @@ fn backends_agree_bit_for_bit_on_spheres_and_triangles() {
         .map(|b| (b, build(b, &positions, &indices, &spheres)))
         .collect();
     let (mut sphere_hits, mut tri_hits) = (0, 0);
+    let mut all_rays = Vec::new();
     for _ in 0..20_000 {
         let o = rng.vec(14.0);
         let ray = Ray::new(o, (rng.vec(1.0) + Vec3::splat(1e-3)).normalize());
+        all_rays.push(ray);
         let oracle = backends.last().unwrap().1.intersect(&ray);
         match oracle {
             Some(h) if h.prim >= 200 => sphere_hits += 1,
@@ -161,6 +165,21 @@ fn backends_agree_bit_for_bit_on_spheres_and_triangles() {
         sphere_hits > 2000 && tri_hits > 200,
         "{sphere_hits} {tri_hits}"
     );
+    // batched queries (Embree's packets, whose lanes reach the sphere
+    // callbacks in groups) answer as single rays do, bit for bit
+    let bits = |h: Option<Hit>| h.map(|h| (h.prim, h.t.to_bits(), h.u.to_bits(), h.v.to_bits()));
+    for (b, a) in &backends {
+        for c in all_rays.chunks(16) {
+            let mut hits = [None; 16];
+            let mut occ = [false; 16];
+            a.intersect_batch(c, &mut hits[..c.len()], Coherence::Incoherent);
+            a.occluded_batch(c, &mut occ[..c.len()], Coherence::Incoherent);
+            for (k, r) in c.iter().enumerate() {
+                assert_eq!(bits(hits[k]), bits(a.intersect(r)), "{b}: batch on {r:?}");
+                assert_eq!(occ[k], a.occluded(r), "{b}: batch occlusion on {r:?}");
+            }
+        }
+    }
 }
 
 #[test]

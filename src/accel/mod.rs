@@ -54,6 +54,37 @@ pub trait Accelerator: Send + Sync {
     /// Bytes the structure holds (nodes, triangle copies; Embree: what its
     /// memory monitor reported), for `bench`'s memory-per-triangle column.
     fn memory_bytes(&self) -> usize;
+
+    /// [`Accelerator::intersect`] for each of `rays`, into `hits` (of the
+    /// same length), with the same answers a ray at a time would get. A
+    /// backend that traces packets overrides it; `coherence` says whether
+    /// the rays of a batch are likely to share their paths (camera rays of
+    /// neighbouring pixels), which packet traversal exploits.
+    fn intersect_batch(&self, rays: &[Ray], hits: &mut [Option<Hit>], coherence: Coherence) {
+        let _ = coherence;
+        debug_assert_eq!(rays.len(), hits.len());
+        for (ray, hit) in rays.iter().zip(hits) {
+            *hit = self.intersect(ray);
+        }
+    }
+
+    /// [`Accelerator::occluded`] for each of `rays`, into `occluded`.
+    fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool], coherence: Coherence) {
+        let _ = coherence;
+        debug_assert_eq!(rays.len(), occluded.len());
+        for (ray, o) in rays.iter().zip(occluded) {
+            *o = self.occluded(ray);
+        }
+    }
+}
+
+/// Whether the rays of a batch are likely to traverse the same nodes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Coherence {
+    /// Neighbouring origins and directions (camera rays of a pixel block).
+    Coherent,
+    /// Anything else (bounces, shadow rays).
+    Incoherent,
 }
 
 /// The primitives every backend receives: triangles (a shared vertex buffer
