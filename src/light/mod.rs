@@ -286,11 +286,8 @@ impl Lights {
     ) -> Option<LightSample> {
         let (to, solid_angle_pdf) = match light.shape {
             Emitter::Triangle => {
-                let tri = scene.triangle(light.prim);
                 let b = square_to_uniform_triangle(u);
-                let to =
-                    SurfacePoint::on_triangle(tri, b.x, b.y, scene.normals[light.prim as usize]);
-                (to, None)
+                (scene.surface_point(light.prim, b.x, b.y), None)
             }
             Emitter::Sphere { center, radius } => match sphere_cone(center, radius, from.p) {
                 Some(cone) => {

@@ -21,7 +21,7 @@ use crate::camera::{Camera, ThinLens};
 use crate::error::{Error, Result};
 use crate::integrator::{DirectStrategy, Roulette};
 use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
-use crate::math::{Ray, SurfacePoint, Vec2, Vec3, triangle_normal};
+use crate::math::{Ray, SurfacePoint, Vec2, Vec3, needle_factor, triangle_normal};
 use crate::texture::ImageTexture;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -198,6 +198,9 @@ pub struct Scene {
     pub indices: Vec<[u32; 3]>,
     /// Unit geometric normal per triangle (the front side).
     pub normals: Vec<Vec3>,
+    /// Per triangle, its [`crate::math::needle_factor`], which the offset
+    /// policy needs at every hit.
+    pub needle: Vec<f32>,
     /// Material index per triangle.
     pub tri_material: Vec<u32>,
     /// Materials.
@@ -325,7 +328,8 @@ impl Scene {
     /// from the vertex buffer with its error bound.
     #[inline]
     pub fn surface_point(&self, prim: u32, u: f32, v: f32) -> SurfacePoint {
-        SurfacePoint::on_triangle(self.triangle(prim), u, v, self.normals[prim as usize])
+        let i = prim as usize;
+        SurfacePoint::on_triangle_with(self.triangle(prim), u, v, self.normals[i], self.needle[i])
     }
 
     /// The surface point a backend's `hit` of `ray` stands for: rebuilt from
@@ -610,6 +614,7 @@ impl SceneBuilder {
                 positions: Vec::new(),
                 indices: Vec::new(),
                 normals: Vec::new(),
+                needle: Vec::new(),
                 tri_material: Vec::new(),
                 materials: Vec::new(),
                 meshes: Vec::new(),
@@ -772,6 +777,7 @@ impl SceneBuilder {
             };
             s.indices.push(idx);
             s.normals.push(n);
+            s.needle.push(needle_factor(p));
             s.tri_material.push(base_material + mat);
             if keep_uv {
                 s.tri_uv.push(uv);
