@@ -825,8 +825,8 @@ fn run_render(args: RenderArgs) -> Result<()> {
         sampler: args.sampler,
         clamp: args.clamp,
     };
-    let tiles =
-        (w.div_ceil(settings.tile_size.max(1)) * h.div_ceil(settings.tile_size.max(1))) as u64;
+    let side = embertrace::render::tile_side(settings.tile_size);
+    let tiles = (w.div_ceil(side) * h.div_ceil(side)) as u64;
     let bar = if std::io::stderr().is_terminal() && !args.quiet {
         let b = ProgressBar::new(tiles);
         if let Ok(style) =

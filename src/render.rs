@@ -8,7 +8,7 @@
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::film::{Film, Tile};
-use crate::integrator::{PathTracer, RayCounts};
+use crate::integrator::{BATCH, BLOCK, Lane, PathTracer, RayCounts};
 use crate::math::{Ray, Vec2, Vec3};
 use crate::sampler::{Sampler, SamplerKind};
 use rayon::prelude::*;
@@ -37,6 +37,22 @@ pub trait Radiance: Sync {
             camera.generate_ray_lens(p, sampler.next_2d())
         }
     }
+
+    /// Sample `sample` of each of `pixels` at once: `lanes[i]` holds pixel
+    /// `pixels[i]`'s camera ray and sampler, and gets its radiance in `l`.
+    /// By default one sample at a time through [`Radiance::radiance`]; the
+    /// path tracer traces them as one batch.
+    fn radiance_batch(
+        &self,
+        pixels: &[[u32; 2]],
+        sample: u32,
+        lanes: &mut [Lane],
+        rays: &mut RayCounts,
+    ) {
+        for (&pixel, lane) in pixels.iter().zip(lanes) {
+            lane.l = self.radiance(pixel, sample, &lane.ray, &mut lane.sampler, rays);
+        }
+    }
 }
 
 impl Radiance for PathTracer<'_> {
@@ -53,6 +69,10 @@ impl Radiance for PathTracer<'_> {
 
     fn camera_ray(&self, camera: &Camera, p: Vec2, sampler: &mut Sampler) -> Ray {
         PathTracer::camera_ray(self, camera, p, sampler)
+    }
+
+    fn radiance_batch(&self, _: &[[u32; 2]], _: u32, lanes: &mut [Lane], rays: &mut RayCounts) {
+        self.trace(lanes, rays);
     }
 }
 
@@ -233,6 +253,13 @@ pub struct PassOutput {
     pub clamp: ClampReport,
 }
 
+/// The side of the tiles a render works in for a requested `tile_size`:
+/// rounded up to whole [`BLOCK`]s, so every tile holds whole blocks of the
+/// image's block grid and a pixel's batch is the same whatever the tiling.
+pub fn tile_side(tile_size: u32) -> u32 {
+    tile_size.max(1).next_multiple_of(BLOCK)
+}
+
 /// A pool of `threads` workers (0 = one per core).
 pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
     rayon::ThreadPoolBuilder::new()
@@ -278,7 +305,7 @@ pub fn render_pass(
     pool: &rayon::ThreadPool,
     on_tile: &(dyn Fn() + Sync),
 ) -> PassOutput {
-    let bounds = film.tiles(settings.tile_size.max(1));
+    let bounds = film.tiles(tile_side(settings.tile_size));
     let state: &Film = film;
     let results: Vec<TileResult> = pool.install(|| {
         bounds
@@ -314,23 +341,45 @@ fn render_tile(
     let n_pixels = settings.resolution[0] as usize * settings.resolution[1] as usize;
     let b = tile.bounds();
     let width = settings.resolution[0] as u64;
-    for y in b.y0..b.y0 + b.height {
-        for x in b.x0..b.x0 + b.width {
-            let pixel = y as u64 * width + x as u64;
-            if active.is_some_and(|a| !a[pixel as usize]) {
-                continue;
+    let mut pixels = [[0u32; 2]; BATCH];
+    let mut lanes: Vec<Lane> = Vec::with_capacity(BATCH);
+    // one batch per BLOCK x BLOCK block of the image's block grid (tiles hold
+    // whole blocks, see `tile_side`) and sample index
+    for by in (b.y0..b.y0 + b.height).step_by(BLOCK as usize) {
+        for bx in (b.x0..b.x0 + b.width).step_by(BLOCK as usize) {
+            let mut n = 0;
+            for y in by..(by + BLOCK).min(b.y0 + b.height) {
+                for x in bx..(bx + BLOCK).min(b.x0 + b.width) {
+                    let pixel = y as u64 * width + x as u64;
+                    if active.is_none_or(|a| a[pixel as usize]) {
+                        pixels[n] = [x, y];
+                        n += 1;
+                    }
+                }
             }
             for s in settings.first_sample..settings.first_sample + settings.spp {
-                let mut sampler =
-                    Sampler::with_kind(settings.sampler, settings.seed, pixel, s as u64);
-                let jitter = sampler.next_2d();
-                let ray =
-                    tracer.camera_ray(camera, Vec2::new(x as f32, y as f32) + jitter, &mut sampler);
-                let l = tracer.radiance([x, y], s, &ray, &mut sampler, &mut rays);
-                if l.is_finite() && l.min_element() >= 0.0 {
-                    tile.add_sample(x, y, clamp_sample(l, settings.clamp, &mut clamp));
-                } else {
-                    nonfinite.record(l, pixel as usize, n_pixels);
+                lanes.clear();
+                for &[x, y] in &pixels[..n] {
+                    let pixel = y as u64 * width + x as u64;
+                    let mut sampler =
+                        Sampler::with_kind(settings.sampler, settings.seed, pixel, s as u64);
+                    let jitter = sampler.next_2d();
+                    let ray = tracer.camera_ray(
+                        camera,
+                        Vec2::new(x as f32, y as f32) + jitter,
+                        &mut sampler,
+                    );
+                    lanes.push(Lane::new(sampler, ray));
+                }
+                tracer.radiance_batch(&pixels[..n], s, &mut lanes, &mut rays);
+                for (&[x, y], lane) in pixels[..n].iter().zip(&lanes) {
+                    let l = lane.l;
+                    if l.is_finite() && l.min_element() >= 0.0 {
+                        tile.add_sample(x, y, clamp_sample(l, settings.clamp, &mut clamp));
+                    } else {
+                        let pixel = y as u64 * width + x as u64;
+                        nonfinite.record(l, pixel as usize, n_pixels);
+                    }
                 }
             }
         }

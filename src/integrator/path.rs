@@ -1,0 +1,623 @@
+//! The estimator's per-path work, done for a batch of paths in lockstep
+//! (a small wavefront): every path of the batch shades its hit, then the
+//! shadow rays of all of them go to the backend together, then their
+//! continuation rays, so a backend that traces packets (Embree) gets full
+//! packets. The camera rays of a batch come from one 4 x 4 block of pixels
+//! and are traced as a coherent packet.
+//!
+//! Each path is the forward form of the recursive estimator in the module
+//! above: `L = sum_k beta_k l_k`, where `l_k` is what bounce `k` adds
+//! (emission seen, light-sampled direct light, the emission its BSDF sample
+//! finds) and `beta_k` the throughput up to it, roulette included. A path
+//! owns its sampler and draws from it in the same order whatever the batch
+//! holds: at each bounce, the roulette number for going on, then
+//! `light_samples` pairs (light choice, point), then the BSDF sample. A
+//! batch is always the same paths (one pixel block's, at one sample index;
+//! the render loop keeps blocks whole whatever the tiling), so the image is
+//! a function of the scene, the settings and the seed, for any thread count
+//! or tile size. The pure-Rust backends answer a ray in a batch bit for bit
+//! as alone; Embree's packet kernels may break a tie on an edge differently
+//! from its single-ray kernel (`tests/conformance.rs`), which is why the
+//! batches are fixed.
+
+use super::{DirectStrategy, PathTracer, RayCounts, Roulette};
+use crate::accel::{Coherence, Hit};
+use crate::bsdf::{Bsdf, Bxdf, Diffuse, Phong};
+use crate::math::{Frame, Ray, SurfacePoint, Vec3, gamma, spawn_ray};
+use crate::sampler::Sampler;
+use crate::sampling::power_heuristic;
+
+/// Paths traced together: a 4 x 4 block of pixels, the width of Embree's
+/// widest packet.
+pub const BATCH: usize = 16;
+
+/// Side of the square pixel block whose camera rays form one batch.
+pub const BLOCK: u32 = 4;
+
+/// One path of a batch: its sampler, the ray it is about to trace, and what
+/// it has gathered so far.
+#[derive(Debug, Clone)]
+pub struct Lane {
+    /// The path's sample generator.
+    pub sampler: Sampler,
+    /// The ray to trace next (the camera ray, for a new lane).
+    pub ray: Ray,
+    /// Radiance gathered so far; the sample's value once the batch is done.
+    pub l: Vec3,
+    /// Throughput up to the next hit.
+    beta: Vec3,
+    /// Product of the refraction factors `eta'^2` along the path.
+    eta_scale: f32,
+    /// The bounce that sent `ray` (0: the camera).
+    depth: u32,
+    alive: bool,
+    /// The scattering event that sent `ray`, for the emission it finds.
+    prev: Prev,
+}
+
+/// What the emission a BSDF-sampled ray finds is weighted with.
+#[derive(Debug, Clone, Copy)]
+struct Prev {
+    /// Throughput times the BSDF sample's weight, before roulette.
+    beta_weight: Vec3,
+    /// The BSDF sample's solid-angle density.
+    pdf: f32,
+    /// The sample came from a delta lobe (no light sample could have made it).
+    delta: bool,
+    /// Where light sampling looked from at that bounce.
+    from: SurfacePoint,
+}
+
+impl Lane {
+    /// A path that starts with the camera ray `ray`, drawing from `sampler`.
+    pub fn new(sampler: Sampler, ray: Ray) -> Self {
+        Lane {
+            sampler,
+            ray,
+            l: Vec3::ZERO,
+            beta: Vec3::ONE,
+            eta_scale: 1.0,
+            depth: 0,
+            alive: true,
+            prev: Prev {
+                beta_weight: Vec3::ZERO,
+                pdf: 0.0,
+                delta: false,
+                from: SurfacePoint {
+                    p: Vec3::ZERO,
+                    p_err: Vec3::ZERO,
+                    n: Vec3::Z,
+                },
+            },
+        }
+    }
+}
+
+/// A ray's hit, resolved into what shading needs.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Interaction {
+    pub(super) prim: u32,
+    /// The geometric surface point; `sp.n` is the front (outward) normal.
+    pub(super) sp: SurfacePoint,
+    /// Unit direction back along the incoming ray.
+    pub(super) wo: Vec3,
+    /// Geometric normal turned to `wo`'s side.
+    pub(super) ng: Vec3,
+    /// Shading normal on `ng`'s side (equal to `ng` when shading flat).
+    pub(super) ns: Vec3,
+    /// Barycentrics of the hit (triangles).
+    pub(super) u: f32,
+    pub(super) v: f32,
+}
+
+/// A BSDF as a kernel evaluates it: the diffuse-only kernels read a
+/// Lambertian from the per-material albedo table, the others dispatch on
+/// the material (with its texture).
+pub(super) trait KernelBsdf: Bxdf + Copy {
+    /// The BSDF of material `m` at `its`.
+    fn at(tracer: &PathTracer<'_>, its: &Interaction, m: usize) -> Self;
+}
+
+impl KernelBsdf for Diffuse {
+    #[inline]
+    fn at(tracer: &PathTracer<'_>, _: &Interaction, m: usize) -> Self {
+        Diffuse {
+            albedo: tracer.albedo[m],
+        }
+    }
+}
+
+impl KernelBsdf for Bsdf {
+    #[inline]
+    fn at(tracer: &PathTracer<'_>, its: &Interaction, m: usize) -> Self {
+        let material = &tracer.scene.materials[m];
+        let Some(t) = &material.texture else {
+            return material.bsdf;
+        };
+        let uv = tracer.scene.uv(its.prim, &its.sp, its.u, its.v);
+        let albedo = t.eval(uv).clamp(Vec3::ZERO, Vec3::ONE);
+        match &material.bsdf {
+            Bsdf::Plastic(p) => Bsdf::Plastic(p.with_diffuse(albedo)),
+            Bsdf::Phong(p) => Bsdf::Phong(Phong {
+                diffuse: albedo,
+                ..*p
+            }),
+            _ => Bsdf::Diffuse(Diffuse { albedo }),
+        }
+    }
+}
+
+/// A lane's shading point at the current bounce.
+#[derive(Debug, Clone, Copy)]
+struct Shade<B> {
+    its: Interaction,
+    bsdf: B,
+    frame: Frame,
+    wo_local: Vec3,
+    /// The BSDF transmits (and the kernel has materials).
+    transmits: bool,
+    /// Where rays to the front of a smooth triangle start (Hanika's point).
+    from: Option<SurfacePoint>,
+}
+
+/// A light sample waiting for its shadow ray: its lane and what it adds
+/// if the ray is unoccluded (before the throughput).
+#[derive(Debug, Clone, Copy)]
+struct Pending {
+    lane: usize,
+    contribution: Vec3,
+}
+
+/// A placeholder ray for unused batch slots.
+const NO_RAY: Ray = Ray {
+    o: Vec3::ZERO,
+    d: Vec3::Z,
+    t_max: 0.0,
+};
+
+impl<'a> PathTracer<'a> {
+    /// Trace the paths of `lanes` (at most [`BATCH`]) to the end, in
+    /// lockstep; each lane's `l` then holds its sample's radiance.
+    pub(super) fn trace_kernel<
+        const M: bool,
+        const D: bool,
+        const E: bool,
+        const A: bool,
+        const S: bool,
+    >(
+        &self,
+        lanes: &mut [Lane],
+        rays: &mut RayCounts,
+    ) {
+        if M {
+            self.trace_lanes::<Bsdf, M, D, E, A, S>(lanes, rays);
+        } else {
+            self.trace_lanes::<Diffuse, M, D, E, A, S>(lanes, rays);
+        }
+    }
+
+    fn trace_lanes<
+        B: KernelBsdf,
+        const M: bool,
+        const D: bool,
+        const E: bool,
+        const A: bool,
+        const S: bool,
+    >(
+        &self,
+        lanes: &mut [Lane],
+        rays: &mut RayCounts,
+    ) {
+        debug_assert!(lanes.len() <= BATCH);
+        let mut batch = [NO_RAY; BATCH];
+        let mut hits: [Option<Hit>; BATCH] = [None; BATCH];
+        let mut slot = [0usize; BATCH];
+        let mut shade: [Option<Shade<B>>; BATCH] = [None; BATCH];
+        loop {
+            // --- trace every live path's ray, the camera's as a packet ---
+            let mut n = 0;
+            let mut camera = false;
+            for (i, lane) in lanes.iter().enumerate() {
+                if lane.alive {
+                    batch[n] = lane.ray;
+                    slot[n] = i;
+                    camera |= lane.depth == 0;
+                    n += 1;
+                }
+            }
+            if n == 0 {
+                return;
+            }
+            let coherence = if camera {
+                Coherence::Coherent
+            } else {
+                Coherence::Incoherent
+            };
+            self.accel
+                .intersect_batch(&batch[..n], &mut hits[..n], coherence);
+            if camera {
+                rays.camera += n as u64;
+            } else {
+                rays.extension += n as u64;
+            }
+
+            // --- what each hit adds, and whether its path goes on ---
+            for k in 0..n {
+                let i = slot[k];
+                shade[i] = self.arrive::<B, M, D, E, A, S>(&mut lanes[i], hits[k]);
+            }
+
+            // --- direct lighting: light sampling, shadow rays in batches ---
+            self.sample_lights::<B, D, S>(lanes, &shade, rays);
+
+            // --- BSDF sampling: each live path's next ray ---
+            for (lane, sh) in lanes.iter_mut().zip(shade.iter_mut()) {
+                if let Some(sh) = sh.take() {
+                    self.scatter::<B, M, D, S>(lane, &sh);
+                }
+            }
+        }
+    }
+
+    /// Lane `lane`'s ray found `hit`: add the emission it sees, end the path
+    /// where it ends (a miss, the depth limit, roulette), and otherwise
+    /// return the shading point of the next bounce.
+    #[inline]
+    fn arrive<
+        B: KernelBsdf,
+        const M: bool,
+        const D: bool,
+        const E: bool,
+        const A: bool,
+        const S: bool,
+    >(
+        &self,
+        lane: &mut Lane,
+        hit: Option<Hit>,
+    ) -> Option<Shade<B>> {
+        let its = hit.map(|h| self.interaction::<S>(&lane.ray, &h));
+        if lane.depth == 0 {
+            // --- emission seen directly ---
+            let Some(its) = its else {
+                if E {
+                    lane.l += self.lights.environment(lane.ray.d);
+                }
+                lane.alive = false;
+                return None;
+            };
+            if A {
+                lane.l += self.zero_bounce_radiance(&its);
+            }
+            if self.settings.max_depth < 1 {
+                lane.alive = false;
+                return None;
+            }
+            return Some(self.shading_point::<B, M, S>(its));
+        }
+
+        // --- emission found by the last BSDF sample (the other half of
+        // that bounce's direct lighting) ---
+        let prev = lane.prev;
+        let direct = self.settings.direct;
+        if (A || E) && (direct != DirectStrategy::Light || prev.delta) {
+            let wi = lane.ray.d;
+            let (le, light_pdf) = match &its {
+                None if E => (self.lights.environment(wi), self.lights.pdf_environment(wi)),
+                Some(n) if A => (
+                    self.lights.le(self.scene, n.prim, n.sp.n, n.wo),
+                    // the density light sampling had, from where it sampled
+                    self.lights.pdf_area(&prev.from, n.prim, &n.sp),
+                ),
+                _ => (Vec3::ZERO, 0.0),
+            };
+            if le != Vec3::ZERO {
+                let w = if direct == DirectStrategy::Mis && !prev.delta {
+                    let n_light = self.settings.light_samples.max(1) as f32;
+                    power_heuristic(1.0, prev.pdf, n_light, light_pdf)
+                } else {
+                    1.0
+                };
+                lane.l += prev.beta_weight * le * w;
+            }
+        }
+
+        // --- indirect lighting goes on, with Russian roulette ---
+        let Some(its) = its else {
+            lane.alive = false;
+            return None;
+        };
+        if lane.depth >= self.settings.max_depth {
+            lane.alive = false;
+            return None;
+        }
+        if lane.depth >= self.settings.rr_depth {
+            let q = match self.settings.roulette {
+                Roulette::Throughput => {
+                    let b = if M {
+                        lane.beta * lane.eta_scale
+                    } else {
+                        lane.beta
+                    };
+                    b.max_element().min(1.0)
+                }
+                Roulette::Fixed(p) => p.min(1.0),
+            };
+            // q <= 0 (or NaN) ends the path; never divide by it
+            if !(q > 0.0) || lane.sampler.next_1d() >= q {
+                lane.alive = false;
+                return None;
+            }
+            lane.beta /= q;
+        }
+        debug_assert!(lane.beta.is_finite(), "throughput became {}", lane.beta);
+        Some(self.shading_point::<B, M, S>(its))
+    }
+
+    /// The BSDF, frame and ray origin of a bounce at `its`.
+    #[inline]
+    fn shading_point<B: KernelBsdf, const M: bool, const S: bool>(
+        &self,
+        its: Interaction,
+    ) -> Shade<B> {
+        // without spheres every primitive is a triangle: no dispatch
+        let m = if S {
+            self.scene.material_index(its.prim)
+        } else {
+            self.scene.tri_material[its.prim as usize]
+        } as usize;
+        let bsdf = B::at(self, &its, m);
+        // A BSDF that transmits needs the outward normal (bsdf module docs).
+        let transmits = M && bsdf.has_transmission();
+        let frame = Frame::from_normal(if transmits && its.ng != its.sp.n {
+            -its.ns
+        } else {
+            its.ns
+        });
+        // Rays to the front of a smooth triangle leave from above it.
+        let from = if S && !transmits {
+            self.terminator_point(&its)
+        } else {
+            None
+        };
+        Shade {
+            wo_local: frame.to_local(its.wo),
+            its,
+            bsdf,
+            frame,
+            transmits,
+            from,
+        }
+    }
+
+    /// Light sampling at every lane with a shading point: `light_samples`
+    /// rounds, each drawing one light sample per lane and tracing the
+    /// round's shadow rays as one batch; each lane adds the mean of its
+    /// unoccluded samples times its throughput.
+    fn sample_lights<B: KernelBsdf, const D: bool, const S: bool>(
+        &self,
+        lanes: &mut [Lane],
+        shade: &[Option<Shade<B>>; BATCH],
+        rays: &mut RayCounts,
+    ) {
+        let direct = self.settings.direct;
+        let use_light = direct != DirectStrategy::Bsdf;
+        let mis = direct == DirectStrategy::Mis;
+        // Delta lights can only be light-sampled, whatever the strategy.
+        let sample_lights = use_light || (D && self.lights.has_delta());
+        if !sample_lights || self.lights.is_empty() {
+            return;
+        }
+        let rounds = self.settings.light_samples.max(1);
+        let n_light = rounds as f32;
+        let mut sum = [Vec3::ZERO; BATCH];
+        let mut shadow = [NO_RAY; BATCH];
+        let mut pending = [Pending {
+            lane: 0,
+            contribution: Vec3::ZERO,
+        }; BATCH];
+        let mut occluded = [false; BATCH];
+        let mut any = false;
+        for _ in 0..rounds {
+            let mut n = 0;
+            for (i, (lane, sh)) in lanes.iter_mut().zip(shade).enumerate() {
+                // useless on a pure delta BSDF
+                let Some(sh) = sh.as_ref().filter(|sh| !(D && sh.bsdf.is_delta())) else {
+                    continue;
+                };
+                any = true;
+                let u_sel = lane.sampler.next_1d();
+                let u = lane.sampler.next_2d();
+                let from = sh.from.as_ref().unwrap_or(&sh.its.sp);
+                let Some(ls) = self.lights.sample(self.scene, from, u_sel, u) else {
+                    continue;
+                };
+                let delta_light = D && ls.delta;
+                if !use_light && !delta_light {
+                    continue;
+                }
+                // no light through the geometric surface, whatever the
+                // shading normal says (a no-op when shading flat)
+                if S && !sh.transmits && ls.wi.dot(sh.its.ng) <= 0.0 {
+                    continue;
+                }
+                let wi_local = sh.frame.to_local(ls.wi);
+                let f = sh.bsdf.eval(sh.wo_local, wi_local);
+                if f == Vec3::ZERO || ls.li == Vec3::ZERO {
+                    continue;
+                }
+                let w = if delta_light || !mis {
+                    1.0
+                } else {
+                    power_heuristic(n_light, ls.pdf, 1.0, sh.bsdf.pdf(sh.wo_local, wi_local))
+                };
+                shadow[n] = ls.shadow;
+                pending[n] = Pending {
+                    lane: i,
+                    contribution: f * ls.li * (wi_local.z.abs() * w / ls.pdf),
+                };
+                n += 1;
+            }
+            if n == 0 {
+                continue;
+            }
+            rays.shadow += n as u64;
+            self.accel
+                .occluded_batch(&shadow[..n], &mut occluded[..n], Coherence::Incoherent);
+            for (p, &o) in pending[..n].iter().zip(&occluded[..n]) {
+                if !o {
+                    sum[p.lane] += p.contribution;
+                }
+            }
+        }
+        if any {
+            for (i, lane) in lanes.iter_mut().enumerate() {
+                if shade[i].is_some() {
+                    lane.l += lane.beta * (sum[i] / n_light);
+                }
+            }
+        }
+    }
+
+    /// BSDF sampling at `sh`: the lane's next ray and throughput, or the
+    /// end of its path.
+    #[inline]
+    fn scatter<B: KernelBsdf, const M: bool, const D: bool, const S: bool>(
+        &self,
+        lane: &mut Lane,
+        sh: &Shade<B>,
+    ) {
+        let its = &sh.its;
+        let Some(bs) = sh.bsdf.sample(sh.wo_local, lane.sampler.next_2d()) else {
+            lane.alive = false;
+            return;
+        };
+        let wi = sh.frame.to_world(bs.wi);
+        // the sample must leave on the side of the geometric surface its lobe
+        // says: reflection on wo's side, transmission on the other (a no-op
+        // when shading flat)
+        let refracted = bs.wi.z * sh.wo_local.z < 0.0;
+        if S && ((wi.dot(its.ng) > 0.0) == refracted) {
+            lane.alive = false;
+            return;
+        }
+        let weight = bs.weight();
+        lane.ray = match &sh.from {
+            Some(p) if wi.dot(its.sp.n) > 0.0 => spawn_ray(p, wi),
+            _ => spawn_ray(&its.sp, wi),
+        };
+        lane.prev = Prev {
+            beta_weight: lane.beta * weight,
+            pdf: bs.pdf,
+            delta: D && bs.delta,
+            from: sh.from.unwrap_or(its.sp),
+        };
+        lane.beta *= weight;
+        if M && sh.transmits && refracted {
+            // undo the 1 / eta'^2 of the refraction for the roulette
+            let etap = if sh.wo_local.z > 0.0 {
+                sh.bsdf.eta()
+            } else {
+                1.0 / sh.bsdf.eta()
+            };
+            lane.eta_scale *= etap * etap;
+        }
+        lane.depth += 1;
+    }
+
+    #[inline]
+    pub(super) fn interaction<const S: bool>(&self, ray: &Ray, hit: &Hit) -> Interaction {
+        let sp = if S {
+            self.scene.hit_point(ray, hit)
+        } else {
+            self.scene.surface_point(hit.prim, hit.u, hit.v)
+        };
+        let wo = -ray.d;
+        let ng = if sp.n.dot(wo) < 0.0 { -sp.n } else { sp.n };
+        let ns = if S {
+            self.shading_normal(hit, ng, wo)
+        } else {
+            ng
+        };
+        Interaction {
+            prim: hit.prim,
+            sp,
+            wo,
+            ng,
+            ns,
+            u: hit.u,
+            v: hit.v,
+        }
+    }
+
+    /// The smooth-shading rule. A triangle whose three corners have vertex
+    /// normals gets their barycentric interpolation (corners face the
+    /// triangle's front, see the scene builder), turned to `ng`'s side; any
+    /// other hit shades with `ng`. If `wo` would fall below the shading
+    /// normal's horizon (closer than [`super::MIN_SHADING_COS`]), the normal
+    /// is bent towards `wo` until it is not, so no view sees a black
+    /// terminator.
+    fn shading_normal(&self, hit: &Hit, ng: Vec3, wo: Vec3) -> Vec3 {
+        let Some(c) = self.corner_normals(hit.prim) else {
+            return ng;
+        };
+        let b0 = 1.0 - hit.u - hit.v;
+        let mut n = (b0 * c[0] + hit.u * c[1] + hit.v * c[2]).normalize_or_zero();
+        if n == Vec3::ZERO {
+            return ng;
+        }
+        if n.dot(ng) < 0.0 {
+            n = -n;
+        }
+        let cos = n.dot(wo);
+        if cos < super::MIN_SHADING_COS {
+            n = (n + (super::MIN_SHADING_COS - cos) * wo).normalize_or_zero();
+            if n == Vec3::ZERO || n.dot(ng) <= 0.0 {
+                return ng;
+            }
+        }
+        n
+    }
+
+    /// The vertex normals of triangle `prim`, when all three exist.
+    fn corner_normals(&self, prim: u32) -> Option<[Vec3; 3]> {
+        let c = self.scene.tri_shading_normals.get(prim as usize)?;
+        (c.iter().all(|n| *n != Vec3::ZERO)).then_some(*c)
+    }
+
+    /// Where rays leaving a smooth-shaded triangle to its front start
+    /// (Hanika 2021, "Hacking the Shadow Terminator", Ray Tracing Gems II
+    /// chapter 4): the hit point moved onto the barycentric blend of its
+    /// projections onto the corners' tangent planes, where it lies below them.
+    /// On a coarse mesh of a curved surface that is where the smooth surface
+    /// would be, so shadow rays leave from above the facet and the shading
+    /// terminator is not cut into facets. `None` for flat hits and for views
+    /// from the back.
+    fn terminator_point(&self, its: &Interaction) -> Option<SurfacePoint> {
+        if its.ng != its.sp.n {
+            return None;
+        }
+        let c = self.corner_normals(its.prim)?;
+        let tri = self.scene.triangle(its.prim);
+        let b = [1.0 - its.u - its.v, its.u, its.v];
+        let p = its.sp.p;
+        let mut shift = Vec3::ZERO;
+        for k in 0..3 {
+            shift -= b[k] * (p - tri[k]).dot(c[k]).min(0.0) * c[k];
+        }
+        if shift == Vec3::ZERO || !shift.is_finite() {
+            return None;
+        }
+        let q = p + shift;
+        Some(SurfacePoint {
+            p: q,
+            p_err: its.sp.p_err
+                + Vec3::splat(gamma(8) * (p.abs().max_element() + shift.abs().max_element())),
+            n: its.sp.n,
+        })
+    }
+
+    /// Emission leaving the surface towards the viewer.
+    fn zero_bounce_radiance(&self, its: &Interaction) -> Vec3 {
+        self.lights.le(self.scene, its.prim, its.sp.n, its.wo)
+    }
+}
