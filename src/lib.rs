@@ -19,6 +19,7 @@ pub mod camera;
 pub mod convert;
 pub mod diff;
 pub mod effects_bench;
+pub mod efficiency;
 pub mod film;
 pub mod integrator;
 pub mod light;

@@ -198,12 +198,19 @@ struct BenchArgs {
     /// one effect added at a time.
     #[arg(long)]
     effects: bool,
-    /// Resolution of the --effects renders: width height.
+    /// Instead of ray throughput, measure the renderer's efficiency: a
+    /// one-thread render's time against the time its ray queries alone take.
+    #[arg(long, conflicts_with = "effects")]
+    efficiency: bool,
+    /// Resolution of the --effects and --efficiency renders: width height.
     #[arg(short = 'r', long = "resolution", num_args = 2, value_names = ["W", "H"], default_values_t = [128, 128])]
     resolution: Vec<u32>,
-    /// Samples per pixel of the --effects renders.
+    /// Samples per pixel of the --effects and --efficiency renders.
     #[arg(short = 's', long = "spp", default_value_t = 16)]
     spp: u32,
+    /// Sampler of the --efficiency renders.
+    #[arg(long, default_value_t = SamplerKind::default())]
+    sampler: SamplerKind,
 }
 
 #[derive(Args)]
@@ -588,32 +595,58 @@ fn run_bench(args: BenchArgs) -> Result<()> {
         ));
     }
     let scene = Scene::load(&args.scene)?;
-    if args.effects {
+    if args.effects || args.efficiency {
         let [w, h] = [args.resolution[0], args.resolution[1]];
+        let what = if args.effects {
+            "--effects"
+        } else {
+            "--efficiency"
+        };
         if w == 0 || h == 0 || w > MAX_RESOLUTION || h > MAX_RESOLUTION || args.spp == 0 {
             return Err(Error::Settings(format!(
-                "--effects renders {w} x {h} at {} spp: each side 1..={MAX_RESOLUTION}, at least 1 spp",
+                "{what} renders {w} x {h} at {} spp: each side 1..={MAX_RESOLUTION}, at least 1 spp",
                 args.spp
             )));
         }
+    }
+    let backend = args
+        .accel
+        .as_ref()
+        .and_then(|l| l.first().copied())
+        .unwrap_or_else(Backend::default_backend);
+    let integrator = IntegratorSettings {
+        max_depth: scene.render.max_depth,
+        rr_depth: scene.render.rr_depth,
+        direct: scene.render.direct,
+        roulette: scene.render.roulette,
+        ..IntegratorSettings::default()
+    };
+    if args.efficiency {
+        let settings = embertrace::efficiency::EfficiencySettings {
+            backend,
+            resolution: [args.resolution[0], args.resolution[1]],
+            spp: args.spp,
+            sampler: args.sampler,
+            reps: args.reps,
+            options: args.build.options(),
+        };
+        let report = embertrace::efficiency::run(&scene, &settings, integrator, &|line| {
+            eprintln!("{line}")
+        })?;
+        print!("{}", report.table());
+        if let Some(j) = &args.json {
+            write_json(j, &report)?;
+        }
+        return Ok(());
+    }
+    if args.effects {
         let settings = embertrace::effects_bench::EffectsBenchSettings {
-            backend: args
-                .accel
-                .as_ref()
-                .and_then(|l| l.first().copied())
-                .unwrap_or_else(Backend::default_backend),
-            resolution: [w, h],
+            backend,
+            resolution: [args.resolution[0], args.resolution[1]],
             spp: args.spp,
             reps: args.reps,
             threads: args.threads,
             options: args.build.options(),
-        };
-        let integrator = IntegratorSettings {
-            max_depth: scene.render.max_depth,
-            rr_depth: scene.render.rr_depth,
-            direct: scene.render.direct,
-            roulette: scene.render.roulette,
-            ..IntegratorSettings::default()
         };
         let report = embertrace::effects_bench::run(&scene, &settings, integrator, &|line| {
             eprintln!("{line}")
