@@ -25,7 +25,7 @@
 //! `tests/conformance.rs`: a 2000-unit sliver, and a needle of a sphere
 //! squashed 1e-4 : 2e-3 : 8).
 
-pub use glam::{DVec3, Vec2, Vec3};
+pub use glam::{DVec3, Vec2, Vec3, Vec3A};
 
 /// A ray `o + t d` for `t` in `[0, t_max]`. `d` is unit length unless stated
 /// otherwise, so `t` is a distance.
@@ -69,6 +69,7 @@ pub fn gamma(n: i32) -> f32 {
 }
 
 /// The next representable `f32` above `x` (infinity stays infinity).
+#[inline]
 pub fn next_float_up(x: f32) -> f32 {
     if x.is_infinite() && x > 0.0 {
         return x;
@@ -80,6 +81,7 @@ pub fn next_float_up(x: f32) -> f32 {
 }
 
 /// The next representable `f32` below `x`.
+#[inline]
 pub fn next_float_down(x: f32) -> f32 {
     -next_float_up(-x)
 }
@@ -168,21 +170,28 @@ impl SurfacePoint {
     /// every hit).
     #[inline]
     pub fn on_triangle_with(p: [Vec3; 3], u: f32, v: f32, n: Vec3, needle: f32) -> Self {
-        let b0 = 1.0 - u - v;
-        let pos = b0 * p[0] + u * p[1] + v * p[2];
-        let p_err = gamma(7) * ((b0 * p[0]).abs() + (u * p[1]).abs() + (v * p[2]).abs());
+        // the same operations, in the same order, as the per-axis form
+        // `b0 p0 + u p1 + v p2`, on 4-wide vectors
+        let [a, b, c] = p.map(Vec3A::from);
+        let (ta, tb, tc) = (a * (1.0 - u - v), b * u, c * v);
+        let pos = ta + tb + tc;
+        let p_err = gamma(7) * (ta.abs() + tb.abs() + tc.abs()).max_element();
         // Isotropic: every axis gets the largest per-axis bound. pbrt's
         // per-axis bound is zero along an axis where the point is exact (on
         // the plane y = 0, say), but a ray query's own rounding mixes the
         // axes, so an origin one ulp off such a plane can still see it at a
         // tiny positive t in a backend we cannot patch (Embree).
         // Plus the backend allowance for large triangles (module docs).
-        let reach = p
-            .iter()
-            .map(|q| (*q - pos).abs().max_element())
-            .fold(0.0, f32::max);
-        let p_err = Vec3::splat(p_err.max_element() + gamma(16) * reach * needle);
-        SurfacePoint { p: pos, p_err, n }
+        let reach = (a - pos)
+            .abs()
+            .max((b - pos).abs())
+            .max((c - pos).abs())
+            .max_element();
+        SurfacePoint {
+            p: pos.into(),
+            p_err: Vec3::splat(p_err + gamma(16) * reach * needle),
+            n,
+        }
     }
 }
 
@@ -215,22 +224,33 @@ impl SurfacePoint {
 /// (a point on an axis-aligned plane through 0 is exact): the origin then
 /// lies strictly off the plane, so no backend can report the source surface
 /// at `t = 0`, whatever its `tnear` rule.
+#[inline]
 pub fn offset_ray_origin(sp: &SurfacePoint, w: Vec3) -> Vec3 {
-    let d = sp.n.abs().dot(sp.p_err);
-    let side = if w.dot(sp.n) < 0.0 { -1.0 } else { 1.0 };
-    let dir = side * sp.n;
-    let mut po = sp.p + d * dir;
-    for i in 0..3 {
-        if dir[i] > 0.0 {
-            po[i] = next_float_up(po[i]);
-        } else if dir[i] < 0.0 {
-            po[i] = next_float_down(po[i]);
-        }
+    let n = Vec3A::from(sp.n);
+    let d = n.abs().dot(Vec3A::from(sp.p_err));
+    let dir = if w.dot(sp.n) < 0.0 { -n } else { n };
+    let po = Vec3A::from(sp.p) + d * dir;
+    Vec3::new(
+        step_out(po.x, dir.x),
+        step_out(po.y, dir.y),
+        step_out(po.z, dir.z),
+    )
+}
+
+/// `x` moved one ulp the way `dir`'s sign says (not at all for `dir == 0`).
+#[inline]
+fn step_out(x: f32, dir: f32) -> f32 {
+    if dir > 0.0 {
+        next_float_up(x)
+    } else if dir < 0.0 {
+        next_float_down(x)
+    } else {
+        x
     }
-    po
 }
 
 /// A ray leaving surface point `sp` in unit direction `d`.
+#[inline]
 pub fn spawn_ray(sp: &SurfacePoint, d: Vec3) -> Ray {
     Ray::new(offset_ray_origin(sp, d), d)
 }
