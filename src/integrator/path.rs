@@ -252,8 +252,9 @@ impl<'a> PathTracer<'a> {
 
             // --- BSDF sampling: each live path's next ray ---
             for (lane, sh) in lanes.iter_mut().zip(shade.iter_mut()) {
-                if let Some(sh) = sh.take() {
-                    self.scatter::<B, M, D, S>(lane, &sh);
+                if let Some(s) = sh {
+                    self.scatter::<B, M, D, S>(lane, s);
+                    *sh = None;
                 }
             }
         }
