@@ -231,6 +231,7 @@ pub fn run(
             };
             let tracer = PathTracer::with_kernel(&v.scene, accels[k].as_ref(), integrator, kernel);
             let rs = RenderSettings {
+                total_spp: None,
                 resolution: settings.resolution,
                 spp: settings.spp,
                 first_sample: 0,

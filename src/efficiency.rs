@@ -198,6 +198,7 @@ pub fn run(
     let [w, h] = settings.resolution;
     let camera = scene.make_camera(w, h);
     let rs = RenderSettings {
+        total_spp: None,
         resolution: settings.resolution,
         spp: settings.spp,
         first_sample: 0,

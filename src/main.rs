@@ -239,9 +239,10 @@ struct RenderArgs {
     /// Random seed [scene default, else 0].
     #[arg(long)]
     seed: Option<u64>,
-    /// Sample generator: independent (PCG32) or sobol (padded,
-    /// Owen-scrambled Sobol points).
-    #[arg(long, default_value_t = SamplerKind::Independent)]
+    /// Sample generator: sobol (padded, Owen-scrambled Sobol points: the
+    /// least error per unit of time), zsobol (the same along a Morton curve:
+    /// blue-noise error, dearer per sample) or independent (PCG32).
+    #[arg(long, default_value_t = SamplerKind::default())]
     sampler: SamplerKind,
     /// Ray-query backend: embree or naive [embree when compiled in].
     #[arg(long)]
@@ -502,7 +503,7 @@ fn run_study(args: StudyArgs) -> Result<()> {
         spp: args.spp.unwrap_or(scene.render.spp).max(1),
         seed: args.seed.unwrap_or(scene.render.seed),
         backend: args.accel.unwrap_or_else(Backend::default_backend),
-        sampler: SamplerKind::Independent,
+        sampler: SamplerKind::default(),
         resolution,
         threads: args.threads,
     };
@@ -849,6 +850,7 @@ fn run_render(args: RenderArgs) -> Result<()> {
     let kernel = plan.kernel_for(args.plan);
     let tracer = PathTracer::with_kernel(&scene, accel.as_ref(), integrator, kernel);
     let settings = RenderSettings {
+        total_spp: None,
         resolution,
         spp,
         first_sample: 0,

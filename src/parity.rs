@@ -348,6 +348,7 @@ fn compare_images(
     let settings = IntegratorSettings::default();
     let camera = scene.make_camera(res, res);
     let rs = RenderSettings {
+        total_spp: None,
         resolution: [res, res],
         spp,
         first_sample: 0,

@@ -242,6 +242,7 @@ pub fn render_progressive(
         }
         n = n.min(max_spp - done);
         let rs = RenderSettings {
+            total_spp: Some(max_spp),
             spp: n,
             first_sample: done,
             ..*settings

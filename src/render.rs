@@ -10,7 +10,7 @@ use crate::error::{Error, Result};
 use crate::film::{Film, Tile};
 use crate::integrator::{BATCH, BLOCK, Lane, PathTracer, RayCounts};
 use crate::math::{Ray, Vec2, Vec3};
-use crate::sampler::{Sampler, SamplerKind};
+use crate::sampler::{SampleSpace, Sampler, SamplerKind};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -88,6 +88,10 @@ pub struct RenderSettings {
     pub spp: u32,
     /// Index of the first sample (progressive passes continue the sequence).
     pub first_sample: u32,
+    /// Samples per pixel of the whole render, all its calls together (a
+    /// progressive render's cap), for samplers whose points depend on it
+    /// (`zsobol`); `None`: this call's `first_sample + spp`.
+    pub total_spp: Option<u32>,
     /// Random seed.
     pub seed: u64,
     /// Worker threads; 0 = all cores.
@@ -341,6 +345,14 @@ fn render_tile(
     let n_pixels = settings.resolution[0] as usize * settings.resolution[1] as usize;
     let b = tile.bounds();
     let width = settings.resolution[0] as u64;
+    let space = SampleSpace::new(
+        settings.sampler,
+        settings.seed,
+        settings.resolution,
+        settings
+            .total_spp
+            .unwrap_or(settings.first_sample + settings.spp),
+    );
     let mut pixels = [[0u32; 2]; BATCH];
     let mut lanes: Vec<Lane> = Vec::with_capacity(BATCH);
     // one batch per BLOCK x BLOCK block of the image's block grid (tiles hold
@@ -360,9 +372,7 @@ fn render_tile(
             for s in settings.first_sample..settings.first_sample + settings.spp {
                 lanes.clear();
                 for &[x, y] in &pixels[..n] {
-                    let pixel = y as u64 * width + x as u64;
-                    let mut sampler =
-                        Sampler::with_kind(settings.sampler, settings.seed, pixel, s as u64);
+                    let mut sampler = space.sampler(x, y, s);
                     let jitter = sampler.next_2d();
                     let ray = tracer.camera_ray(
                         camera,

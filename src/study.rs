@@ -267,6 +267,7 @@ impl Renderer<'_> {
         let tracer = PathTracer::new(scene, accel, s.integrator);
         let camera = scene.make_camera(s.resolution[0], s.resolution[1]);
         let rs = RenderSettings {
+            total_spp: None,
             resolution: s.resolution,
             spp: s.spp,
             first_sample: 0,

@@ -322,6 +322,7 @@ fn course_scenes_render() {
             },
         );
         let rs = RenderSettings {
+            total_spp: None,
             resolution: [24, 18],
             spp: 2,
             first_sample: 0,

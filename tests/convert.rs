@@ -19,6 +19,7 @@ fn image(scene: &Scene) -> Vec<f32> {
     };
     let tracer = PathTracer::new(scene, acc.as_ref(), settings);
     let rs = RenderSettings {
+        total_spp: None,
         resolution: [24, 24],
         spp: 2,
         first_sample: 0,

@@ -34,6 +34,7 @@ fn image(scene: &Scene, res: [u32; 2], spp: u32) -> Vec<Vec3> {
     };
     let tracer = PathTracer::new(scene, acc.as_ref(), settings);
     let rs = RenderSettings {
+        total_spp: None,
         resolution: res,
         spp,
         first_sample: 0,
@@ -201,6 +202,7 @@ fn a_quad_light_lights_the_floor_by_its_form_factor() {
     let camera = s.make_camera(1, 1);
     let stats = common::batch_means(40, 40, |i| {
         let rs = RenderSettings {
+            total_spp: None,
             resolution: [1, 1],
             spp: 256,
             first_sample: 0,

@@ -49,6 +49,7 @@ fn render_with(
         None => PathTracer::new(scene, acc.as_ref(), settings),
     };
     let rs = RenderSettings {
+        total_spp: None,
         resolution: res,
         spp,
         first_sample: 0,

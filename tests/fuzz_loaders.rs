@@ -320,6 +320,7 @@ fn render_tiny(scene: Scene) {
     };
     let tracer = PathTracer::new(&scene, acc.as_ref(), settings);
     let rs = RenderSettings {
+        total_spp: None,
         resolution: [2, 2],
         spp: 1,
         first_sample: 0,

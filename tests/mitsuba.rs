@@ -64,6 +64,7 @@ fn ours(scene: &Scene) -> (usize, usize, Vec<f64>, Vec<f64>) {
     let (mut sum, mut sum2) = (vec![0.0f64; n], vec![0.0f64; n]);
     for k in 0..PASSES {
         let rs = RenderSettings {
+            total_spp: None,
             resolution: [w, h],
             spp: SPP,
             first_sample: 0,

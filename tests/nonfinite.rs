@@ -37,6 +37,7 @@ fn run(threads: usize, tile: u32, clamp: Option<f32>) -> RenderOutput {
     };
     let camera = Camera::new(&desc, 8, 6);
     let rs = RenderSettings {
+        total_spp: None,
         resolution: [8, 6],
         spp: 4,
         first_sample: 0,

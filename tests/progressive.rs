@@ -26,6 +26,7 @@ fn cornell() -> Scene {
 
 fn settings(res: u32, spp: u32, seed: u64, sampler: SamplerKind) -> RenderSettings {
     RenderSettings {
+        total_spp: None,
         resolution: [res, res],
         spp,
         first_sample: 0,

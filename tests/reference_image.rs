@@ -45,6 +45,7 @@ fn cornell_film(backend: Backend, spp: u32, seed: u64) -> Film {
     let tracer = PathTracer::new(&scene, acc.as_ref(), IntegratorSettings::default());
     let camera = Camera::new(&scene.camera, RES, RES);
     let rs = RenderSettings {
+        total_spp: None,
         resolution: [RES, RES],
         spp,
         first_sample: 0,

@@ -36,6 +36,7 @@ fn render_box(
     let tracer = PathTracer::new(scene, acc.as_ref(), settings);
     let camera = Camera::new(&scene.camera, res, res);
     let rs = RenderSettings {
+        total_spp: None,
         resolution: [res, res],
         spp,
         first_sample: 0,
@@ -288,6 +289,7 @@ fn render_sampler(scene: &Scene, sampler: SamplerKind, spp: u32, threads: usize)
     let tracer = PathTracer::new(scene, acc.as_ref(), IntegratorSettings::default());
     let camera = Camera::new(&scene.camera, 24, 24);
     let rs = RenderSettings {
+        total_spp: None,
         resolution: [24, 24],
         spp,
         first_sample: 0,

@@ -78,6 +78,7 @@ fn render_scene(s: &Scene, b: Backend) -> (Film, u64) {
     let tracer = PathTracer::new(s, acc.as_ref(), IntegratorSettings::default());
     let camera = Camera::new(&s.camera, RES, RES);
     let rs = RenderSettings {
+        total_spp: None,
         resolution: [RES, RES],
         spp: 32,
         first_sample: 0,
