@@ -3,15 +3,16 @@
 //! environment's direction sampling (hard case 12), and irradiance furnaces
 //! for constant and image environments (hard case 23's estimator without the
 //! geometry); and the scene's light set: an emissive sphere sampled in the
-//! cone it subtends, from near and far, and the power-proportional choice
-//! among lights of every kind.
+//! cone it subtends, from near and far, a quad light sampled by solid angle
+//! from near and by area from far, and the power-proportional choice among
+//! lights of every kind.
 
 mod common;
 
 use common::{batch_means, chi2_test};
 use embertrace::light::EnvironmentMap;
 use embertrace::light::envmap::{direction_to_uv, uv_to_direction};
-use embertrace::math::{Vec2, Vec3};
+use embertrace::math::{DVec3, Vec2, Vec3};
 use embertrace::sampler::Sampler;
 use embertrace::sampling::PiecewiseConstant2D;
 use embertrace::texture::ImageTexture;
@@ -19,7 +20,7 @@ use std::f64::consts::PI;
 use std::path::PathBuf;
 
 /// Chi-square tests in this file, for the Sidak correction.
-const CHI2_TESTS: usize = 4;
+const CHI2_TESTS: usize = 6;
 const N: usize = 1_000_000;
 
 fn data(name: &str) -> PathBuf {
@@ -411,4 +412,114 @@ radiance = 0.05
     }
     let exp: Vec<f64> = powers.iter().map(|p| p / total * n as f64).collect();
     chi2_test(CHI2_TESTS, "light choice", &obs, &exp);
+}
+
+#[test]
+fn chi2_quad_light_by_solid_angle_near_and_by_area_far() {
+    // a 2 x 1 rectangle of two triangles (one light), facing -y, seen from
+    // near (where it subtends about 1.7 sr: sampled uniformly in solid
+    // angle, Urena et al.) and from far (by area). The sampled point's
+    // position on the rectangle must follow the density each promises:
+    // cos / d^2 per unit area over the solid angle, or 1 / area.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("quad.obj"),
+        "v -1 1 -0.5\nv 1 1 -0.5\nv 1 1 0.5\nv -1 1 0.5\nf 1 2 3\nf 1 3 4\n",
+    )
+    .unwrap();
+    let path = dir.path().join("s.toml");
+    std::fs::write(
+        &path,
+        "[[mesh]]\nfile = \"quad.obj\"\nmaterial = { diffuse = 0.0, emission = 1.0 }\n",
+    )
+    .unwrap();
+    let scene = embertrace::scene::Scene::load(&path).unwrap();
+    let lights = embertrace::light::Lights::new(&scene);
+    assert_eq!(lights.area_lights().len(), 1, "the quad is one light");
+    for (k, from) in [Vec3::new(0.3, 0.4, 0.1), Vec3::new(0.5, -30.0, 0.2)]
+        .into_iter()
+        .enumerate()
+    {
+        let sp = point_at(from);
+        let (nx, nz) = (16, 8);
+        // expected density of the point over the rectangle, per cell
+        let density = |x: f64, z: f64| {
+            let v = DVec3::new(x, 1.0, z) - from.as_dvec3();
+            let d2 = v.length_squared();
+            v.y.abs() / (d2 * d2.sqrt())
+        };
+        let m = 8;
+        let mut exp = vec![0.0; nx * nz];
+        for (c, e) in exp.iter_mut().enumerate() {
+            let (i, j) = (c % nx, c / nx);
+            for a in 0..m {
+                for b in 0..m {
+                    let x = -1.0 + 2.0 * (i as f64 + (a as f64 + 0.5) / m as f64) / nx as f64;
+                    let z = -0.5 + (j as f64 + (b as f64 + 0.5) / m as f64) / nz as f64;
+                    *e += if k == 0 { density(x, z) } else { 1.0 };
+                }
+            }
+        }
+        let total: f64 = exp.iter().sum();
+        let n = N / 4;
+        for e in exp.iter_mut() {
+            *e *= n as f64 / total;
+        }
+        let mut obs = vec![0.0; nx * nz];
+        let solid_angle = lights_solid_angle(from);
+        let mut s = Sampler::new(31 + k as u64, 0, 0);
+        for _ in 0..n {
+            let ls = lights
+                .sample(&scene, &sp, s.next_1d(), s.next_2d())
+                .expect("the light faces the point");
+            let to = from + ls.wi * ls.shadow.t_max;
+            let cell_x = (((to.x + 1.0) / 2.0 * nx as f32) as usize).min(nx - 1);
+            let cell_z = (((to.z + 0.5) * nz as f32) as usize).min(nz - 1);
+            obs[cell_z * nx + cell_x] += 1.0;
+            // the density reported, and the one pdf_area gives back
+            let v = (to - from).as_dvec3();
+            let d2 = v.length_squared();
+            let cos = v.y.abs() / d2.sqrt();
+            let want = if k == 0 {
+                1.0 / solid_angle
+            } else {
+                d2 / (cos * 2.0)
+            };
+            assert!(
+                (ls.pdf as f64 / want - 1.0).abs() < 2e-3,
+                "{} vs {want}",
+                ls.pdf
+            );
+            let q = embertrace::math::SurfacePoint {
+                p: to,
+                p_err: Vec3::ZERO,
+                n: -Vec3::Y,
+            };
+            let tri = if (to.x + 1.0) / 2.0 >= to.z + 0.5 {
+                0
+            } else {
+                1
+            };
+            let back = lights.pdf_area(&sp, tri, &q) as f64;
+            assert!((back / want - 1.0).abs() < 2e-3, "{back} vs {want}");
+        }
+        chi2_test(CHI2_TESTS, &format!("quad light from {from}"), &obs, &exp);
+    }
+}
+
+/// The solid angle of the test quad (`[-1, 1] x [-0.5, 0.5]` at `y = 1`)
+/// from `p`, by fine quadrature.
+fn lights_solid_angle(p: Vec3) -> f64 {
+    let n = 400;
+    let mut s = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            let x = -1.0 + 2.0 * (i as f64 + 0.5) / n as f64;
+            let z = -0.5 + (j as f64 + 0.5) / n as f64;
+            let v = DVec3::new(x, 1.0, z) - p.as_dvec3();
+            let d2 = v.length_squared();
+            s += v.y.abs() / (d2 * d2.sqrt()) * (2.0 / (n * n) as f64);
+        }
+    }
+    s
 }

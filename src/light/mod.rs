@@ -4,9 +4,13 @@
 //! (luminance of radiance x area x pi, twice that for two-sided emitters;
 //! `4 pi I` for a point light; `E pi r^2` for a directional light and
 //! `pi^2 r^2 L` for the environment, `r` the scene's bounding radius;
-//! pbrt-v4's `PowerLightSampler`, section 12.6.3), then a point on it:
-//! uniform by area on a triangle, converted to solid angle by
-//! `r^2 / |cos theta_l|`; uniform in the subtended cone on a sphere seen from
+//! pbrt-v4's `PowerLightSampler`, section 12.6.3, with an alias table), then
+//! a point on it: uniform by area on a triangle, converted to solid angle by
+//! `r^2 / |cos theta_l|`; on a quad (two consecutive emissive triangles
+//! making a parallelogram) uniform by area with one 2D number for both
+//! triangles, or for a rectangle that looks large, uniform in the solid
+//! angle it subtends ([`Quad`], [`rectangle`]); uniform in the subtended
+//! cone on a sphere seen from
 //! outside; a uniform direction for the uniform environment; the map's own
 //! distribution for the environment map ([`envmap`]). Lights with zero power
 //! get probability zero.
@@ -14,6 +18,7 @@
 pub mod directional;
 pub mod envmap;
 pub mod point;
+pub mod rectangle;
 
 pub use directional::DirectionalLight;
 pub use envmap::{EnvironmentMap, EnvironmentSample};
@@ -25,6 +30,7 @@ use crate::sampling::{
     Discrete, square_to_uniform_sphere, square_to_uniform_sphere_pdf, square_to_uniform_triangle,
 };
 use crate::scene::Scene;
+use rectangle::{Rectangle, SphericalRectangle};
 use std::f32::consts::PI;
 
 /// The shape of an area light.
@@ -32,6 +38,11 @@ use std::f32::consts::PI;
 pub enum Emitter {
     /// An emissive triangle, sampled uniformly by area.
     Triangle,
+    /// Two emissive triangles of one material, consecutive in the scene,
+    /// that make a parallelogram (a quad of an OBJ or PLY file, a Mitsuba
+    /// `rectangle`): one light, sampled with one 2D number over the whole
+    /// shape ([`Quad`]).
+    Quad(Quad),
     /// An emissive sphere, sampled by solid angle (uniformly in the cone it
     /// subtends) from outside, uniformly by area from inside.
     Sphere {
@@ -40,6 +51,132 @@ pub enum Emitter {
         /// Radius.
         radius: f32,
     },
+}
+
+/// Two triangles `(a, b, c)` and `(a, c, d)` (corners up to rotation)
+/// making the parallelogram `a + s (b - a) + t (d - a)`, `s, t in [0, 1)`.
+///
+/// A sample `(s, t)` falls in the first triangle when `s >= t`, at
+/// barycentrics `(1 - s, s - t, t)` of `(a, b, c)`, else in the second, at
+/// `(1 - t, s, t - s)` of `(a, c, d)`: each half of the unit square maps
+/// affinely onto one triangle, so the density by area on triangle `k` is
+/// `1 / (2 A_k)` (`1 / A` for a true parallelogram), and one 2D number
+/// stratifies the whole light, where choosing a triangle first spent a
+/// separate number on the choice.
+///
+/// A rectangle (perpendicular edges) is sampled uniformly in the solid angle
+/// it subtends ([`rectangle`], Ureña et al. 2013) from points where it
+/// looks large (about [`SPHERICAL_PAYS_ABOVE`] or more) and that solid
+/// angle is between [`MIN_SPHERICAL_SOLID_ANGLE`] and
+/// [`MAX_SPHERICAL_SOLID_ANGLE`]; elsewhere, by area. Which one a point
+/// gets depends on the point alone, so `pdf_area` reproduces it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Quad {
+    /// The second triangle (the first is the light's `prim`).
+    pub second: u32,
+    /// How far each triangle's corners are rotated from `(a, b, c)` and
+    /// `(a, c, d)`: scene corner `k` of triangle `j` is canonical corner
+    /// `(k + 3 - rot[j]) % 3`.
+    rot: [u8; 2],
+    /// The two triangles' areas.
+    areas: [f32; 2],
+    /// The rectangle, when the quad is one.
+    rect: Option<Rectangle>,
+    /// Its corner `a`, edges and unit normal, for the test of whether
+    /// spherical sampling pays.
+    corner: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    n: Vec3,
+}
+
+/// Solid angles (steradians) outside which a rectangle is sampled by area:
+/// below, the spherical construction loses precision and area sampling is
+/// as good (the light is small or far); above, the point is nearly in the
+/// light's plane. pbrt-v4 uses the same bounds for spherical triangles
+/// (`Triangle::MinSphericalSampleArea`, `MaxSphericalSampleArea`).
+pub const MIN_SPHERICAL_SOLID_ANGLE: f64 = 3e-4;
+/// See [`MIN_SPHERICAL_SOLID_ANGLE`].
+pub const MAX_SPHERICAL_SOLID_ANGLE: f64 = 6.22;
+
+/// Approximate solid angle (steradians, `A cos / d^2` from the centre)
+/// from which on a rectangle is sampled by solid angle. Spherical sampling
+/// costs about 300 ns a sample (a setup in `f64` with four `acos`), several
+/// times area sampling; it pays where the light looks large. Measured on
+/// one thread at 16 to 32 spp, efficiency `1 / (MSE x time)` against area
+/// sampling: a 1.8 m square ceiling light over a 2 m room, +32 % at 0.1 sr
+/// (+47 % at 0.05, +17 % at 0.2); the Cornell box's small light, -1.5 % at
+/// 0.1 sr, the noise of the measurement (-13 % at 0.05; always spherical,
+/// -30 %).
+pub const SPHERICAL_PAYS_ABOVE: f32 = 0.1;
+
+/// Largest relative gap `|b + d - a - c| / (|b - a| + |d - a|)` for two
+/// triangles to count as a parallelogram.
+const PARALLELOGRAM_TOLERANCE: f32 = 1e-4;
+
+impl Quad {
+    /// The quad that triangles `t0` and `t1` make, if they make one.
+    fn find(t0: [Vec3; 3], t1: [Vec3; 3]) -> Option<(Quad, Vec3, Vec3, Vec3)> {
+        for r0 in 0..3 {
+            let [a, b, c] = [t0[r0], t0[(r0 + 1) % 3], t0[(r0 + 2) % 3]];
+            for r1 in 0..3 {
+                let [a1, c1, d] = [t1[r1], t1[(r1 + 1) % 3], t1[(r1 + 2) % 3]];
+                if a1 != a || c1 != c {
+                    continue;
+                }
+                let (e1, e2) = (b - a, d - a);
+                let gap = (b + d - a - c).length();
+                if !(gap <= PARALLELOGRAM_TOLERANCE * (e1.length() + e2.length())) {
+                    return None;
+                }
+                let area = |p: Vec3, q: Vec3, r: Vec3| {
+                    (0.5 * (q - p).as_dvec3().cross((r - p).as_dvec3()).length()) as f32
+                };
+                let quad = Quad {
+                    second: 0,
+                    rot: [r0 as u8, r1 as u8],
+                    areas: [area(a, b, c), area(a, c, d)],
+                    rect: Rectangle::new(a, e1, e2),
+                    corner: a,
+                    e1,
+                    e2,
+                    n: e1.cross(e2).normalize_or_zero(),
+                };
+                return Some((quad, a, e1, e2));
+            }
+        }
+        None
+    }
+
+    /// The triangle (0 or 1) and its scene barycentrics `(u, v)` of the
+    /// point at fractions `(s, t)` of the edges.
+    fn locate(&self, s: f32, t: f32) -> (usize, f32, f32) {
+        let (k, w) = if s >= t {
+            (0, [1.0 - s, s - t, t])
+        } else {
+            (1, [1.0 - t, s, t - s])
+        };
+        // scene corner j holds canonical corner (j + 3 - rot) % 3
+        let r = self.rot[k] as usize;
+        (k, w[(4 - r) % 3], w[(5 - r) % 3])
+    }
+
+    /// The rectangle seen from `o`, when it is one and spherical sampling
+    /// applies there.
+    fn spherical(&self, o: Vec3) -> Option<SphericalRectangle> {
+        let rect = self.rect?;
+        // the solid angle, roughly (from the centre): below
+        // SPHERICAL_PAYS_ABOVE area sampling is nearly as good and cheaper
+        let v = self.corner + 0.5 * (self.e1 + self.e2) - o;
+        let d2 = v.length_squared();
+        let approx = (self.areas[0] + self.areas[1]) * self.n.dot(v).abs() / (d2 * d2.sqrt());
+        if !(approx >= SPHERICAL_PAYS_ABOVE) {
+            return None;
+        }
+        rect.seen_from(o).filter(|s| {
+            (MIN_SPHERICAL_SOLID_ANGLE..=MAX_SPHERICAL_SOLID_ANGLE).contains(&s.solid_angle())
+        })
+    }
 }
 
 /// An emissive primitive.
@@ -118,12 +255,26 @@ impl Lights {
         let mut area = Vec::new();
         let mut light_of_prim = vec![NO_LIGHT; scene.primitive_count()];
         let mut weights = Vec::new();
-        for prim in 0..scene.primitive_count() as u32 {
+        let n_tris = scene.triangle_count() as u32;
+        let mut prim = 0;
+        while prim < scene.primitive_count() as u32 {
             let m = scene.material(prim);
             if m.emission.max_element() <= 0.0 {
+                prim += 1;
                 continue;
             }
+            let next = prim + 1;
+            let quad = (next < n_tris
+                && scene.tri_material[prim as usize] == scene.tri_material[next as usize])
+                .then(|| Quad::find(scene.triangle(prim), scene.triangle(next)))
+                .flatten();
             let (a, shape) = match scene.sphere(prim) {
+                None if quad.is_some() => {
+                    let (mut q, ..) = quad.expect("checked");
+                    q.second = next;
+                    light_of_prim[next as usize] = area.len() as u32;
+                    (q.areas[0] + q.areas[1], Emitter::Quad(q))
+                }
                 None => {
                     let [p0, p1, p2] = scene.triangle(prim);
                     let a = 0.5 * (p1 - p0).as_dvec3().cross((p2 - p0).as_dvec3()).length();
@@ -151,6 +302,11 @@ impl Lights {
                 area: a,
                 shape,
             });
+            prim += if matches!(shape, Emitter::Quad(_)) {
+                2
+            } else {
+                1
+            };
         }
         let b = scene.bounds();
         let r = if b.is_empty() {
@@ -284,21 +440,43 @@ impl Lights {
         from: &SurfacePoint,
         u: Vec2,
     ) -> Option<LightSample> {
-        let (to, solid_angle_pdf) = match light.shape {
+        let (to, solid_angle_pdf, area) = match light.shape {
             Emitter::Triangle => {
                 let b = square_to_uniform_triangle(u);
-                (scene.surface_point(light.prim, b.x, b.y), None)
+                (scene.surface_point(light.prim, b.x, b.y), None, light.area)
+            }
+            Emitter::Quad(q) => {
+                let spherical = q.spherical(from.p);
+                let (s, t) = match &spherical {
+                    Some(sr) => {
+                        let [s, t] = sr.sample(u);
+                        (s as f32, t as f32)
+                    }
+                    None => (u.x, u.y),
+                };
+                let (k, bu, bv) = q.locate(s, t);
+                let prim = if k == 0 { light.prim } else { q.second };
+                (
+                    scene.surface_point(prim, bu, bv),
+                    spherical.map(|sr| (1.0 / sr.solid_angle()) as f32),
+                    2.0 * q.areas[k],
+                )
             }
             Emitter::Sphere { center, radius } => match sphere_cone(center, radius, from.p) {
                 Some(cone) => {
                     let p = cone.sample(u);
-                    (SurfacePoint::on_sphere(center, radius, p), Some(cone.pdf()))
+                    (
+                        SurfacePoint::on_sphere(center, radius, p),
+                        Some(cone.pdf()),
+                        light.area,
+                    )
                 }
                 None => {
                     let n = square_to_uniform_sphere(u);
                     (
                         SurfacePoint::on_sphere(center, radius, center + radius * n),
                         None,
+                        light.area,
                     )
                 }
             },
@@ -316,7 +494,7 @@ impl Lights {
         let pdf = pmf
             * match solid_angle_pdf {
                 Some(p) => p,
-                None => dist2 / (cos_l.abs() * light.area),
+                None => dist2 / (cos_l.abs() * area),
             };
         if !(pdf > 0.0) || !pdf.is_finite() {
             return None;
@@ -339,18 +517,28 @@ impl Lights {
         }
         let light = &self.area[idx as usize];
         let pmf = self.select.pmf(idx as usize);
-        if let Emitter::Sphere { center, radius } = light.shape {
-            if let Some(cone) = sphere_cone(center, radius, from.p) {
-                return pmf * cone.pdf();
+        let area = match light.shape {
+            Emitter::Sphere { center, radius } => {
+                if let Some(cone) = sphere_cone(center, radius, from.p) {
+                    return pmf * cone.pdf();
+                }
+                light.area
             }
-        }
+            Emitter::Quad(q) => {
+                if let Some(sr) = q.spherical(from.p) {
+                    return pmf * (1.0 / sr.solid_angle()) as f32;
+                }
+                2.0 * q.areas[usize::from(prim == q.second)]
+            }
+            Emitter::Triangle => light.area,
+        };
         let delta = to.p - from.p;
         let dist2 = delta.length_squared();
         let cos_l = to.n.dot(delta).abs() / dist2.sqrt();
-        if !(cos_l > 0.0) || !(light.area > 0.0) {
+        if !(cos_l > 0.0) || !(area > 0.0) {
             return 0.0;
         }
-        pmf * dist2 / (cos_l * light.area)
+        pmf * dist2 / (cos_l * area)
     }
 
     /// Solid-angle density with which [`Lights::sample`] picks direction `wi`
