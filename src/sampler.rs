@@ -303,7 +303,10 @@ impl Padded {
     /// (a scrambled net after every other power of two).
     #[inline]
     fn next(&mut self, width: u32) -> (u32, u64) {
-        let hash = mix64(self.base ^ (self.dimension as u64) << 32);
+        // `base` is a full hash of the seed and pixel already: one
+        // multiply-xorshift round separates the dimensions
+        let h = (self.base ^ (self.dimension as u64) << 32).wrapping_mul(0xd6e8_feb8_6659_fd93);
+        let hash = h ^ (h >> 32);
         self.dimension += width;
         let i = self.index as u64;
         let low = nested_digits(i, self.log2_spp, hash);
