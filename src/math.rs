@@ -311,6 +311,31 @@ pub fn min_gap(scale: f32) -> f32 {
     (gamma(7) * 3.0 * s + gamma(16) * 2.0 * s * 2.0) * 3.0f32.sqrt() + 2.0 * ulp
 }
 
+/// `x.floor()` without a call: the x86-64 baseline has no rounding
+/// instruction (SSE4.1's `roundss`), so `f32::floor` is a call into libm,
+/// which the texture and environment lookups made on every hit. Values of
+/// magnitude `2^23` or more (and NaN, infinities) are already integers and
+/// come back as they are; `-0.0` comes back as `0.0`.
+#[inline]
+pub fn floor(x: f32) -> f32 {
+    if !(x.abs() < 8_388_608.0) {
+        return x;
+    }
+    let t = x as i32 as f32;
+    if t > x { t - 1.0 } else { t }
+}
+
+/// [`floor`] for `f64` (values of magnitude `2^52` or more come back as
+/// they are).
+#[inline]
+pub fn floor_f64(x: f64) -> f64 {
+    if !(x.abs() < 4_503_599_627_370_496.0) {
+        return x;
+    }
+    let t = x as i64 as f64;
+    if t > x { t - 1.0 } else { t }
+}
+
 /// Linear-RGB luminance (Rec. 709 primaries).
 pub fn luminance(c: Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
@@ -361,6 +386,41 @@ mod tests {
                 check_frame(v.normalize());
             }
         }
+    }
+
+    #[test]
+    fn floor_matches_the_library_floor() {
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.9999998,
+            -2.9999998,
+            8_388_607.5,
+            -8_388_607.5,
+            8_388_608.0,
+            1e30,
+            -1e30,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+        ];
+        let mut s = 7u32;
+        for _ in 0..100_000 {
+            s = s.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+            xs.push(f32::from_bits(s) % 1e7);
+        }
+        for x in xs {
+            let (a, b) = (floor(x), x.floor());
+            assert!(a == b || (a.is_nan() && b.is_nan()), "{x}: {a} vs {b}");
+            let y = x as f64 * 1.000_000_1;
+            assert!(floor_f64(y) == y.floor() || y.is_nan(), "{y}");
+        }
+        assert!(floor(f32::NAN).is_nan());
     }
 
     #[test]

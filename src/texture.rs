@@ -142,13 +142,17 @@ impl ImageTexture {
         // continuous texel coordinates, texel centres at integers
         let s = uv.x as f64 * self.width as f64 - 0.5;
         let t = (1.0 - uv.y as f64) * self.height as f64 - 0.5;
-        let (x0, y0) = (s.floor(), t.floor());
+        let (x0, y0) = (crate::math::floor_f64(s), crate::math::floor_f64(t));
         let (fx, fy) = ((s - x0) as f32, (t - y0) as f32);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let a = self.texel_wrapped(x0, y0);
-        let b = self.texel_wrapped(x0 + 1, y0);
-        let c = self.texel_wrapped(x0, y0 + 1);
-        let d = self.texel_wrapped(x0 + 1, y0 + 1);
+        // wrapped once each (a division), the neighbours from those
+        let (w, h) = (self.width as usize, self.height as usize);
+        let x0 = (x0 as i64).rem_euclid(w as i64) as usize;
+        let y0 = (y0 as i64).rem_euclid(h as i64) as usize;
+        let x1 = if x0 + 1 == w { 0 } else { x0 + 1 };
+        let y1 = if y0 + 1 == h { 0 } else { y0 + 1 };
+        let texel = |x: usize, y: usize| self.texels[y * w + x];
+        let (a, b) = (texel(x0, y0), texel(x1, y0));
+        let (c, d) = (texel(x0, y1), texel(x1, y1));
         (1.0 - fy) * ((1.0 - fx) * a + fx * b) + fy * ((1.0 - fx) * c + fx * d)
     }
 }

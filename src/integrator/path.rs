@@ -303,7 +303,7 @@ impl<'a> PathTracer<'a> {
         if (A || E) && (direct != DirectStrategy::Light || prev.delta) {
             let wi = lane.ray.d;
             let (le, light_pdf) = match &its {
-                None if E => (self.lights.environment(wi), self.lights.pdf_environment(wi)),
+                None if E => self.lights.environment_and_pdf(wi),
                 Some(n) if A => (
                     self.lights.le(self.scene, n.prim, n.sp.n, n.wo),
                     // the density light sampling had, from where it sampled

@@ -181,7 +181,7 @@ impl EnvironmentMap {
         }
         let (w, h) = (self.map.width(), self.map.height());
         let mut s = uv.x - 0.5 / w as f32;
-        s -= s.floor();
+        s -= crate::math::floor(s);
         let x = s * w as f32;
         let y = uv.y.clamp(0.0, 1.0) * (h - 1) as f32;
         let ix = (x as u32).min(w - 1);
@@ -204,6 +204,19 @@ impl EnvironmentMap {
     /// `wi` (0 at the poles, where the map's Jacobian vanishes, and where the
     /// radiance is zero).
     pub fn pdf(&self, wi: Vec3) -> f32 {
+        self.pdf_at(wi, direction_to_uv(wi))
+    }
+
+    /// [`EnvironmentMap::eval`] and [`EnvironmentMap::pdf`] together, with
+    /// one conversion of `wi` to map coordinates (an `atan2` and an `acos`).
+    #[inline]
+    pub fn eval_and_pdf(&self, wi: Vec3) -> (Vec3, f32) {
+        let uv = direction_to_uv(wi);
+        (self.eval_uv(uv), self.pdf_at(wi, uv))
+    }
+
+    /// The density of `wi`, whose map coordinates are `uv`.
+    fn pdf_at(&self, wi: Vec3, uv: Vec2) -> f32 {
         if !(self.luminance_integral > 0.0) {
             return 0.0;
         }
@@ -211,7 +224,6 @@ impl EnvironmentMap {
         if !(sin_theta > 0.0) {
             return 0.0;
         }
-        let uv = direction_to_uv(wi);
         let pdf_uv = self.distribution.pdf(self.patch_coords(uv));
         pdf_uv / (2.0 * PI * PI * sin_theta)
     }
@@ -259,7 +271,7 @@ impl EnvironmentMap {
     #[inline]
     fn patch_coords(&self, uv: Vec2) -> Vec2 {
         let mut x = uv.x - 0.5 / self.map.width() as f32;
-        x -= x.floor();
+        x -= crate::math::floor(x);
         if x >= 1.0 {
             x = 0.0;
         }

@@ -543,6 +543,22 @@ impl Lights {
         pmf * dist2 / (cos_l * area)
     }
 
+    /// [`Lights::environment`] and [`Lights::pdf_environment`] of one
+    /// escaping direction, the map's coordinates computed once.
+    pub fn environment_and_pdf(&self, wi: Vec3) -> (Vec3, f32) {
+        let mut l = self.environment.unwrap_or(Vec3::ZERO);
+        let mut pdf = 0.0;
+        if self.environment.is_some() {
+            pdf += self.select.pmf(self.environment_index()) * square_to_uniform_sphere_pdf(wi);
+        }
+        if let Some(map) = &self.environment_map {
+            let (le, p) = map.eval_and_pdf(wi);
+            l += le;
+            pdf += self.select.pmf(self.environment_map_index()) * p;
+        }
+        (l, pdf)
+    }
+
     /// Solid-angle density with which [`Lights::sample`] picks direction `wi`
     /// on the environment (both kinds together).
     pub fn pdf_environment(&self, wi: Vec3) -> f32 {
