@@ -237,14 +237,13 @@ impl EmbreeAccel {
 impl Accelerator for EmbreeAccel {
     fn intersect_batch(&self, rays: &[Ray], hits: &mut [Option<Hit>], coherence: Coherence) {
         debug_assert_eq!(rays.len(), hits.len());
-        let mut packet = sys::RTCRayHit16::default();
+        let mut packet = sys::RTCRayHit16 {
+            ray: sys::ray16(),
+            hit: sys::no_hit16(),
+        };
         for (rays, hits) in rays.chunks(PACKET).zip(hits.chunks_mut(PACKET)) {
             let valid = self.packet(rays, &mut packet.ray);
-            packet.hit.geomID = [sys::RTC_INVALID_GEOMETRY_ID; PACKET];
-            packet.hit.primID = [sys::RTC_INVALID_GEOMETRY_ID; PACKET];
-            for id in packet.hit.instID.iter_mut() {
-                *id = [sys::RTC_INVALID_GEOMETRY_ID; PACKET];
-            }
+            packet.hit = sys::no_hit16();
             shim::intersect16(
                 &self.scene,
                 &valid,
@@ -263,7 +262,7 @@ impl Accelerator for EmbreeAccel {
 
     fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool], coherence: Coherence) {
         debug_assert_eq!(rays.len(), occluded.len());
-        let mut packet = sys::RTCRay16::default();
+        let mut packet = sys::ray16();
         for (rays, out) in rays.chunks(PACKET).zip(occluded.chunks_mut(PACKET)) {
             let valid = self.packet(rays, &mut packet);
             shim::occluded16(

@@ -59,3 +59,37 @@ pub fn rtcInitIntersectContext() -> RTCIntersectContext {
     context.instID.fill(RTC_INVALID_GEOMETRY_ID);
     context
 }
+
+/// An empty 16-wide ray packet (every lane zero; the batch queries fill the
+/// lanes they use). Written out because `embree4-sys` derives no `Default`.
+pub fn ray16() -> RTCRay16 {
+    RTCRay16 {
+        org_x: [0.0; 16],
+        org_y: [0.0; 16],
+        org_z: [0.0; 16],
+        tnear: [0.0; 16],
+        dir_x: [0.0; 16],
+        dir_y: [0.0; 16],
+        dir_z: [0.0; 16],
+        time: [0.0; 16],
+        tfar: [0.0; 16],
+        mask: [0; 16],
+        id: [0; 16],
+        flags: [0; 16],
+    }
+}
+
+/// A 16-wide packet of hit records that hold no hit (every ID invalid),
+/// however many instance levels the configuration has.
+pub fn no_hit16() -> RTCHit16 {
+    RTCHit16 {
+        Ng_x: [0.0; 16],
+        Ng_y: [0.0; 16],
+        Ng_z: [0.0; 16],
+        u: [0.0; 16],
+        v: [0.0; 16],
+        primID: [RTC_INVALID_GEOMETRY_ID; 16],
+        geomID: [RTC_INVALID_GEOMETRY_ID; 16],
+        instID: std::array::from_fn(|_| [RTC_INVALID_GEOMETRY_ID; 16]),
+    }
+}
