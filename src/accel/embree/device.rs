@@ -135,6 +135,17 @@ impl Device {
         self.handle.as_ptr()
     }
 
+    /// Whether this device traces 16-wide packets natively (AVX-512), not
+    /// as two 8-wide halves or four 4-wide quarters.
+    pub(super) fn native_ray16(&self) -> bool {
+        // SAFETY: `self.handle` is a live device; reading a property changes
+        // nothing and takes no pointers.
+        let value = unsafe {
+            sys::rtcGetDeviceProperty(self.raw(), sys::RTCDeviceProperty::NATIVE_RAY16_SUPPORTED)
+        };
+        value != 0
+    }
+
     /// Bytes Embree currently holds for this device, as its memory monitor
     /// reported them.
     pub(super) fn memory_bytes(&self) -> usize {

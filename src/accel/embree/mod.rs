@@ -69,6 +69,15 @@ pub struct EmbreeAccel {
     triangles: u32,
     /// `tnear` of every ray: [`TNEAR_ROBUST`] in robust mode, else 0.
     tnear: f32,
+    /// Whether incoherent batches go to Embree as 16-wide packets: only
+    /// where the CPU traces them natively (AVX-512). Elsewhere Embree splits
+    /// a packet into narrower ones, and packets of incoherent rays lost to
+    /// single-ray queries: the Cornell box at 256 x 256, 64 spp, one thread,
+    /// on a 2-core AMD EPYC with AVX2, rendered in 8.4 s with packets for
+    /// every batch and 7.0 s with single-ray queries for the incoherent
+    /// ones (two alternating runs each). On an AVX-512 machine incoherent
+    /// packets were about 10 % faster than single rays.
+    incoherent_packets: bool,
 }
 
 // SAFETY: after `new` returns, the Embree handles inside are used only for
@@ -113,6 +122,7 @@ impl EmbreeAccel {
         let device = Device::new(config)?;
         let scene = Scene::build(device, soup, options)?;
         Ok(EmbreeAccel {
+            incoherent_packets: scene.device().native_ray16(),
             scene,
             skipped_nonfinite: AtomicU64::new(0),
             triangles: soup.indices.len() as u32,
@@ -237,6 +247,12 @@ impl EmbreeAccel {
 impl Accelerator for EmbreeAccel {
     fn intersect_batch(&self, rays: &[Ray], hits: &mut [Option<Hit>], coherence: Coherence) {
         debug_assert_eq!(rays.len(), hits.len());
+        if coherence == Coherence::Incoherent && !self.incoherent_packets {
+            for (ray, hit) in rays.iter().zip(hits.iter_mut()) {
+                *hit = self.intersect(ray);
+            }
+            return;
+        }
         let mut packet = sys::RTCRayHit16 {
             ray: sys::ray16(),
             hit: sys::no_hit16(),
@@ -262,6 +278,12 @@ impl Accelerator for EmbreeAccel {
 
     fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool], coherence: Coherence) {
         debug_assert_eq!(rays.len(), occluded.len());
+        if coherence == Coherence::Incoherent && !self.incoherent_packets {
+            for (ray, o) in rays.iter().zip(occluded.iter_mut()) {
+                *o = self.occluded(ray);
+            }
+            return;
+        }
         let mut packet = sys::ray16();
         for (rays, out) in rays.chunks(PACKET).zip(occluded.chunks_mut(PACKET)) {
             let valid = self.packet(rays, &mut packet);
