@@ -11,6 +11,7 @@
 //! the first row.
 
 use crate::accel::{self, AccelOptions, Backend, Sphere};
+use crate::bench::median;
 use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Mirror};
 use crate::camera::ThinLens;
 use crate::error::Result;
@@ -253,10 +254,6 @@ pub fn run(
             settings.reps.max(1)
         ));
     }
-    let median = |mut x: Vec<f64>| {
-        x.sort_by(f64::total_cmp);
-        x[x.len() / 2]
-    };
     let mut rows = Vec::new();
     for (k, v) in variants.iter().enumerate() {
         let ns = median(times[k].iter().map(|t| t.0).collect());

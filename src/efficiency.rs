@@ -12,6 +12,7 @@
 //! median over the repetitions, measured on the same thread.
 
 use crate::accel::{self, AccelOptions, Accelerator, Backend, Coherence, Hit};
+use crate::bench::median;
 use crate::error::Result;
 use crate::integrator::{IntegratorSettings, PathTracer, RayCounts};
 use crate::math::Ray;
@@ -180,11 +181,6 @@ fn replay(accel: &dyn Accelerator, log: &Log) -> usize {
         }
     }
     found
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 /// Measure the efficiency of rendering `scene` with `integrator`.
