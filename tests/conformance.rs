@@ -154,22 +154,18 @@ fn on_boundary(soup: &Soup, ray: &Ray, h: &Hit) -> bool {
 /// segment of its first `min(t_max, 1e4)` units) and each edge, in `f64`
 /// (Ericson, "Real-Time Collision Detection", 5.1.9).
 fn near_an_edge(soup: &Soup, ray: &Ray) -> bool {
-    let v = |p: Vec3| [p.x as f64, p.y as f64, p.z as f64];
-    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let at = |a: [f64; 3], d: [f64; 3], s: f64| [a[0] + s * d[0], a[1] + s * d[1], a[2] + s * d[2]];
-    let p1 = v(ray.o);
-    let d1 = at([0.0; 3], v(ray.d), ray.t_max.min(1e4) as f64);
+    let p1 = ray.o.as_dvec3();
+    let d1 = ray.d.as_dvec3() * ray.t_max.min(1e4) as f64;
     soup.indices.iter().any(|tri| {
-        let c = tri.map(|i| v(soup.positions[i as usize]));
+        let c = tri.map(|i| soup.positions[i as usize].as_dvec3());
         (0..3).any(|k| {
-            let (p2, d2) = (c[k], sub(c[(k + 1) % 3], c[k]));
-            let r = sub(p1, p2);
-            let (a, e, f) = (dot(d1, d1), dot(d2, d2), dot(d2, r));
+            let (p2, d2) = (c[k], c[(k + 1) % 3] - c[k]);
+            let r = p1 - p2;
+            let (a, e, f) = (d1.dot(d1), d2.dot(d2), d2.dot(r));
             if e == 0.0 || a == 0.0 {
                 return false;
             }
-            let (b, cc) = (dot(d1, d2), dot(d1, r));
+            let (b, cc) = (d1.dot(d2), d1.dot(r));
             let denom = a * e - b * b;
             let mut s = if denom > 0.0 {
                 ((b * f - cc * e) / denom).clamp(0.0, 1.0)
@@ -184,9 +180,8 @@ fn near_an_edge(soup: &Soup, ray: &Ray) -> bool {
                 t = 1.0;
                 s = ((b - cc) / a).clamp(0.0, 1.0);
             }
-            let gap = sub(at(p1, d1, s), at(p2, d2, t));
-            let reach = dot(at(p1, d1, s), at(p1, d1, s)).sqrt().max(1.0);
-            dot(gap, gap).sqrt() <= 1e-4 * reach
+            let on_ray = p1 + s * d1;
+            on_ray.distance(p2 + t * d2) <= 1e-4 * on_ray.length().max(1.0)
         })
     })
 }
