@@ -20,7 +20,8 @@ defaults (no flags) and with Mitsuba 3 `llvm_ad_rgb` at its default sampler
 
     pip install mitsuba numpy
     apt-get install libllvm19     # Mitsuba's llvm variant; Debian 12's LLVM 15 crashes it
-    python3 benches/race/race.py --reps 2 --ref-spp 4096   # all scenes; 48 min with one --ours-extra row on a 2-core AMD EPYC
+    python3 benches/race/race.py --reps 2 --ref-spp 4096   # all scenes
+    # (48 min with one --ours-extra row on a 2-core AMD EPYC)
     python3 benches/race/race.py --scenes cornell-box --reps 1 --ref-spp 1024   # quick look
 
 References are cached in `--out`/cache, keyed by the converted scene's
