@@ -22,7 +22,7 @@
 
 use crate::bsdf::{Bsdf, Distribution, Lobe};
 use crate::error::{Error, Result};
-use crate::film::{self, Film, OutputOptions};
+use crate::film::{self, OutputOptions};
 use crate::integrator::{DirectStrategy, Roulette};
 use crate::math::Vec3;
 use crate::scene::{Material, Scene};
@@ -47,13 +47,19 @@ fn rgb(v: Vec3) -> String {
 
 /// Write `tex` as a linear EXR at `path`.
 fn write_texture(path: &Path, tex: &ImageTexture) -> Result<()> {
-    let mut f = Film::new(tex.width(), tex.height());
+    let mut rgb = Vec::with_capacity(tex.width() as usize * tex.height() as usize);
     for y in 0..tex.height() {
         for x in 0..tex.width() {
-            f.add_sample(x, y, tex.texel(x, y));
+            rgb.push(tex.texel(x, y).to_array().map(f64::from));
         }
     }
-    film::write_image(path, &f, &OutputOptions::default())
+    film::write_rgb(
+        path,
+        tex.width(),
+        tex.height(),
+        &rgb,
+        &OutputOptions::default(),
+    )
 }
 
 /// The files a conversion writes, in the order written (the TOML last).

@@ -34,32 +34,98 @@ use std::sync::atomic::{AtomicU64, Ordering};
 // Accumulators
 // ---------------------------------------------------------------------------
 
-/// One pixel's running sums, in `f64` so that millions of `f32` samples add up
-/// without losing the small ones.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+/// Fractional bits of the fixed-point accumulators: a sample component `x`
+/// (or its square) is added as the integer `floor(x * 2^FRACTION_BITS)`.
+///
+/// Why fixed point: integer addition is associative, so a pixel's sums do
+/// not depend on the order in which its samples, tiles, passes, shards or
+/// merged parts were added; a farm's merged image is the one-machine image
+/// bit for bit (issue 20). Exact binned summation (Demmel and Nguyen,
+/// "Parallel reproducible summation", IEEE TC 2015; ReproBLAS) would keep
+/// more of tiny values, at several floating-point operations per add;
+/// 128-bit integers cost two instructions per add.
+///
+/// Where the bias lives (every other add is exact):
+/// - truncation: each sample component loses what lies below 2^-40
+///   (9.1e-13), a relative error below 1e-10 for any component above 0.01,
+///   and at most 9.1e-13 absolute for any pixel mean;
+/// - saturation: a component above [`SUM_SATURATION`] (2^64, 1.8e19) adds
+///   as that value, and a square above 2^64 (a component above 2^32, 4.3e9)
+///   adds as 2^64, under-estimating that pixel's variance.
+///
+/// With at most [`MAX_SPP`](crate::scene::limits::MAX_SPP) = 2^24 samples
+/// per pixel of at most 2^104 units each, no sum can overflow its `u128`.
+pub const FRACTION_BITS: u32 = 40;
+
+/// Most units one addend may carry: `2^104 - 1` (2^24 of them fit a `u128`).
+const ADDEND_MAX: u128 = (1 << 104) - 1;
+
+/// The component value above which a sample saturates in the sum: 2^64.
+pub const SUM_SATURATION: f64 = 18_446_744_073_709_551_616.0;
+
+/// `floor(v * 2^FRACTION_BITS)` for finite `v >= 0`, at most
+/// [`ADDEND_MAX`]; read straight from the bits of `v` (no float-to-`u128`
+/// library call).
+#[inline]
+pub fn to_fixed(v: f64) -> u128 {
+    debug_assert!(v >= 0.0 && v.is_finite(), "fixed point takes finite v >= 0");
+    let bits = v.to_bits();
+    let exp = ((bits >> 52) & 0x7ff) as i32;
+    if exp == 0 {
+        // zero, or subnormal: far below one unit
+        return 0;
+    }
+    let m = u128::from(bits & ((1 << 52) - 1) | 1 << 52);
+    // v = m * 2^(exp - 1075), so v * 2^F = m * 2^(exp - 1075 + F)
+    let shift = exp - 1075 + FRACTION_BITS as i32;
+    if shift >= 0 {
+        // m < 2^53: the result fits below 2^104 for shift <= 51
+        if shift > 51 { ADDEND_MAX } else { m << shift }
+    } else if shift > -53 {
+        m >> -shift
+    } else {
+        0
+    }
+}
+
+/// A fixed-point sum back as `f64` (correctly rounded, then scaled exactly).
+#[inline]
+pub fn from_fixed(q: u128) -> f64 {
+    q as f64 * (-(FRACTION_BITS as f64)).exp2()
+}
+
+/// One pixel's running sums: fixed-point integers (see [`FRACTION_BITS`]),
+/// so that they add up in any order to the same bits.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Pixel {
-    /// Sum of the accepted samples, per channel.
-    pub sum: [f64; 3],
-    /// Sum of the squares of the accepted samples, per channel.
-    pub sum_sq: [f64; 3],
+    /// Sum of the accepted samples, per channel, in units of 2^-40.
+    pub sum: [u128; 3],
+    /// Sum of the squares of the accepted samples, per channel, in units of
+    /// 2^-40.
+    pub sum_sq: [u128; 3],
     /// Number of samples accepted.
     pub count: u64,
 }
 
 impl Pixel {
-    /// Adds one sample. The caller has checked that it is finite.
+    /// Adds one sample. The caller has checked that it is finite; a negative
+    /// component (the renderer rejects those before they get here) counts
+    /// as zero.
+    #[inline]
     fn add(&mut self, rgb: Vec3) {
         debug_assert!(rgb.is_finite(), "non-finite sample reached a pixel");
         for c in 0..3 {
-            let v = f64::from(rgb[c]);
-            self.sum[c] += v;
-            self.sum_sq[c] += v * v;
+            let v = f64::from(rgb[c].max(0.0));
+            // an f32 times itself is exact in f64
+            self.sum[c] += to_fixed(v);
+            self.sum_sq[c] += to_fixed(v * v);
         }
         self.count += 1;
     }
 
-    /// Adds another pixel's accumulators into this one.
-    fn merge(&mut self, other: &Pixel) {
+    /// Adds another pixel's accumulators into this one (exactly: integer
+    /// addition).
+    pub fn merge(&mut self, other: &Pixel) {
         for c in 0..3 {
             self.sum[c] += other.sum[c];
             self.sum_sq[c] += other.sum_sq[c];
@@ -73,22 +139,30 @@ impl Pixel {
             return [0.0; 3];
         }
         let n = self.count as f64;
-        self.sum.map(|s| s / n)
+        self.sum.map(|s| from_fixed(s) / n)
     }
 
-    /// The estimated variance of the mean per channel, in `f64`: the unbiased
-    /// sample variance `(sum_sq - sum^2 / n) / (n - 1)` divided by `n`; zero
-    /// with fewer than two samples. Rounding can make the difference slightly
-    /// negative for constant samples; it is clamped to zero.
-    pub fn variance_of_mean_f64(&self) -> [f64; 3] {
+    /// The unbiased sample variance per channel, `(sum_sq - sum^2 / n) /
+    /// (n - 1)`, in `f64`; zero with fewer than two samples. Rounding can
+    /// make the difference slightly negative for constant samples; it is
+    /// clamped to zero.
+    pub fn variance_f64(&self) -> [f64; 3] {
         if self.count < 2 {
             return [0.0; 3];
         }
         let n = self.count as f64;
         std::array::from_fn(|c| {
-            let var = (self.sum_sq[c] - self.sum[c] * self.sum[c] / n) / (n - 1.0);
-            var.max(0.0) / n
+            let (s, sq) = (from_fixed(self.sum[c]), from_fixed(self.sum_sq[c]));
+            ((sq - s * s / n) / (n - 1.0)).max(0.0)
         })
+    }
+
+    /// The estimated variance of the mean per channel: [`Pixel::variance_f64`]
+    /// divided by `n`; zero with fewer than two samples.
+    pub fn variance_of_mean_f64(&self) -> [f64; 3] {
+        let n = self.count as f64;
+        self.variance_f64()
+            .map(|v| if self.count < 2 { 0.0 } else { v / n })
     }
 }
 
@@ -182,10 +256,14 @@ impl Tile {
     }
 }
 
-/// The image being rendered: one [`Pixel`] of accumulators per pixel,
-/// row-major, row 0 at the top.
+/// The image being rendered: one [`Pixel`] of accumulators per pixel of a
+/// window of the image (the whole image unless the render is a crop),
+/// row-major, row 0 at the top. Pixels are addressed in image coordinates.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Film {
+    /// The window's first column and row in the image.
+    x0: u32,
+    y0: u32,
     width: u32,
     height: u32,
     pixels: Vec<Pixel>,
@@ -196,33 +274,69 @@ impl Film {
     /// An empty `width` x `height` film (either may be zero; such a film
     /// cannot be written out).
     pub fn new(width: u32, height: u32) -> Film {
-        Film {
+        Film::window(TileBounds {
+            x0: 0,
+            y0: 0,
             width,
             height,
-            pixels: vec![Pixel::default(); to_usize(u64::from(width) * u64::from(height))],
+        })
+    }
+
+    /// An empty film for the pixels of `window` only (a crop).
+    pub fn window(window: TileBounds) -> Film {
+        Film {
+            x0: window.x0,
+            y0: window.y0,
+            width: window.width,
+            height: window.height,
+            pixels: vec![Pixel::default(); to_usize(window.area())],
             non_finite: 0,
         }
     }
 
-    /// Width in pixels.
+    /// The pixels this film holds, in image coordinates.
+    pub fn bounds(&self) -> TileBounds {
+        TileBounds {
+            x0: self.x0,
+            y0: self.y0,
+            width: self.width,
+            height: self.height,
+        }
+    }
+
+    /// Width in pixels (of the window).
     pub fn width(&self) -> u32 {
         self.width
     }
 
-    /// Height in pixels.
+    /// Height in pixels (of the window).
     pub fn height(&self) -> u32 {
         self.height
     }
 
-    /// Index of pixel `(x, y)` in `pixels`.
+    /// Every pixel's accumulators, row-major over the window.
+    pub fn pixels(&self) -> &[Pixel] {
+        &self.pixels
+    }
+
+    /// Every pixel's accumulators, to fill from a file.
+    pub fn pixels_mut(&mut self) -> &mut [Pixel] {
+        &mut self.pixels
+    }
+
+    /// Add `n` to the count of dropped non-finite samples.
+    pub fn add_non_finite(&mut self, n: u64) {
+        self.non_finite += n;
+    }
+
+    /// Index of pixel `(x, y)` (image coordinates) in `pixels`.
     fn index(&self, x: u32, y: u32) -> usize {
         assert!(
-            x < self.width && y < self.height,
-            "pixel ({x}, {y}) is outside the {}x{} film",
-            self.width,
-            self.height
+            self.bounds().contains(x, y),
+            "pixel ({x}, {y}) is outside the film's window {:?}",
+            self.bounds()
         );
-        y as usize * self.width as usize + x as usize
+        (y - self.y0) as usize * self.width as usize + (x - self.x0) as usize
     }
 
     /// Adds one sample to pixel `(x, y)`. A sample with a non-finite component
@@ -246,17 +360,15 @@ impl Film {
     /// [`Film::tiles`], so this is a bug).
     pub fn merge_tile(&mut self, tile: &Tile) {
         let b = tile.bounds;
-        let fits = u64::from(b.x0) + u64::from(b.width) <= u64::from(self.width)
-            && u64::from(b.y0) + u64::from(b.height) <= u64::from(self.height);
-        assert!(
-            fits,
-            "tile {b:?} is outside the {}x{} film",
-            self.width, self.height
-        );
+        let f = self.bounds();
+        let fits = b.x0 >= f.x0
+            && b.y0 >= f.y0
+            && u64::from(b.x0) + u64::from(b.width) <= u64::from(f.x0) + u64::from(f.width)
+            && u64::from(b.y0) + u64::from(b.height) <= u64::from(f.y0) + u64::from(f.height);
+        assert!(fits, "tile {b:?} is outside the film's window {f:?}");
         if b.width > 0 {
-            let film_w = self.width as usize;
             for (row, tile_row) in tile.pixels.chunks_exact(b.width as usize).enumerate() {
-                let start = (b.y0 as usize + row) * film_w + b.x0 as usize;
+                let start = self.index(b.x0, b.y0 + row as u32);
                 let film_row = &mut self.pixels[start..start + b.width as usize];
                 for (p, t) in film_row.iter_mut().zip(tile_row) {
                     p.merge(t);
@@ -307,20 +419,32 @@ impl Film {
     }
 
     /// The film cut into `tile_size` x `tile_size` tiles in row-major order
-    /// (left to right, then top to bottom), the last column and row clipped to
-    /// the film. A `tile_size` of 0 is taken as 1.
+    /// (left to right, then top to bottom): the image's tile grid (from its
+    /// top left corner, whatever the window) clipped to the film's window. A
+    /// `tile_size` of 0 is taken as 1.
     pub fn tiles(&self, tile_size: u32) -> Vec<TileBounds> {
-        let size = tile_size.max(1);
+        let size = u64::from(tile_size.max(1));
+        let f = self.bounds();
+        let (x1, y1) = (
+            u64::from(f.x0) + u64::from(f.width),
+            u64::from(f.y0) + u64::from(f.height),
+        );
         let mut tiles = Vec::new();
-        for y0 in (0..self.height).step_by(size as usize) {
-            for x0 in (0..self.width).step_by(size as usize) {
+        let mut y = u64::from(f.y0);
+        while y < y1 {
+            let ty1 = ((y / size + 1) * size).min(y1);
+            let mut x = u64::from(f.x0);
+            while x < x1 {
+                let tx1 = ((x / size + 1) * size).min(x1);
                 tiles.push(TileBounds {
-                    x0,
-                    y0,
-                    width: size.min(self.width - x0),
-                    height: size.min(self.height - y0),
+                    x0: x as u32,
+                    y0: y as u32,
+                    width: (tx1 - x) as u32,
+                    height: (ty1 - y) as u32,
                 });
+                x = tx1;
             }
+            y = ty1;
         }
         tiles
     }
@@ -503,19 +627,46 @@ pub fn check_output_path(path: &Path) -> Result<()> {
 /// Writes `film` to `path` in the format its extension names, atomically (see
 /// [`write_file_atomically`]).
 pub fn write_image(path: &Path, film: &Film, opts: &OutputOptions) -> Result<()> {
+    let means: Vec<[f64; 3]> = film.pixels.iter().map(Pixel::mean_f64).collect();
+    write_rgb(path, film.width, film.height, &means, opts)
+}
+
+/// Writes linear RGB pixels (row-major, top row first) to `path` in the
+/// format its extension names, atomically: what [`write_image`] does with a
+/// film's means, for images that are not renders (textures, maps).
+pub fn write_rgb(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[[f64; 3]],
+    opts: &OutputOptions,
+) -> Result<()> {
     let format = ImageFormat::from_path(path)?;
-    if film.width == 0 || film.height == 0 {
+    if width == 0 || height == 0 {
         return Err(Error::Settings(format!(
-            "{}: cannot write an empty {}x{} image",
+            "{}: cannot write an empty {width}x{height} image",
             path.display(),
-            film.width,
-            film.height
         )));
     }
+    assert_eq!(rgb.len() as u64, u64::from(width) * u64::from(height));
+    let img = Rgb { width, height, rgb };
     match format {
-        ImageFormat::Png => write_png(path, film, opts.exposure),
-        ImageFormat::Exr => write_exr(path, film, &opts.metadata),
-        ImageFormat::Pfm => write_pfm(path, film),
+        ImageFormat::Png => write_png(path, &img, opts.exposure),
+        ImageFormat::Exr => write_exr(path, &img, &opts.metadata),
+        ImageFormat::Pfm => write_pfm(path, &img),
+    }
+}
+
+/// Pixels on their way to a file.
+struct Rgb<'a> {
+    width: u32,
+    height: u32,
+    rgb: &'a [[f64; 3]],
+}
+
+impl Rgb<'_> {
+    fn to_f32(&self) -> Vec<f32> {
+        self.rgb.iter().flat_map(|p| p.map(|v| v as f32)).collect()
     }
 }
 
@@ -586,7 +737,7 @@ impl Drop for TempFile {
 /// directory, which is flushed, synced and renamed over `path`. On any error
 /// (including one from `write`) the temporary file is removed and `path` is
 /// left as it was.
-fn write_atomically<F>(path: &Path, write: F) -> Result<()>
+pub(crate) fn write_atomically<F>(path: &Path, write: F) -> Result<()>
 where
     F: FnOnce(&mut BufWriter<File>) -> Result<()>,
 {
@@ -642,15 +793,15 @@ pub fn srgb8(linear: f64) -> u8 {
 
 /// The film's 8-bit sRGB bytes, row-major, top row first, after scaling the
 /// pixel means by `2^exposure`.
-fn png_bytes(film: &Film, exposure: f32) -> Vec<u8> {
+fn png_bytes(film: &Rgb, exposure: f32) -> Vec<u8> {
     let scale = f64::from(exposure).exp2();
-    film.pixels
+    film.rgb
         .iter()
-        .flat_map(|p| p.mean_f64().map(|m| srgb8(m * scale)))
+        .flat_map(|p| p.map(|m| srgb8(m * scale)))
         .collect()
 }
 
-fn write_png(path: &Path, film: &Film, exposure: f32) -> Result<()> {
+fn write_png(path: &Path, film: &Rgb, exposure: f32) -> Result<()> {
     use image::ImageEncoder;
     if !exposure.is_finite() {
         return Err(Error::Settings(format!(
@@ -714,7 +865,7 @@ fn exr_read_error(path: &Path, e: exr::error::Error) -> Error {
     }
 }
 
-fn write_exr(path: &Path, film: &Film, metadata: &[(String, String)]) -> Result<()> {
+fn write_exr(path: &Path, film: &Rgb, metadata: &[(String, String)]) -> Result<()> {
     use exr::meta::attribute::{AttributeValue, Text};
     use exr::prelude::{
         Encoding, Image, Layer, LayerAttributes, SpecificChannels, Vec2, WritableImage,
@@ -732,7 +883,7 @@ fn write_exr(path: &Path, film: &Film, metadata: &[(String, String)]) -> Result<
         );
     }
 
-    let rgb = film.to_rgb_f32();
+    let rgb = film.to_f32();
     let width = film.width as usize;
     let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
         let i = (pos.y() * width + pos.x()) * 3;
@@ -834,8 +985,8 @@ pub fn read_exr_metadata(path: &Path) -> Result<Vec<(String, String)>> {
 // PFM
 // ---------------------------------------------------------------------------
 
-fn write_pfm(path: &Path, film: &Film) -> Result<()> {
-    let rgb = film.to_rgb_f32();
+fn write_pfm(path: &Path, film: &Rgb) -> Result<()> {
+    let rgb = film.to_f32();
     let row_floats = film.width as usize * 3;
     write_atomically(path, |w| {
         let io = |e| Error::io(path, e);
@@ -1147,7 +1298,7 @@ mod tests {
             merged.merge_tile(tile);
         }
         assert_eq!(merged.count(4, 2), 14);
-        assert_eq!(merged.pixel(4, 2).sum[0], 2.0 * direct.pixel(4, 2).sum[0]);
+        assert_eq!(merged.pixel(4, 2).sum[0], 2 * direct.pixel(4, 2).sum[0]);
         let mut cleared = tiles[0].clone();
         cleared.clear();
         assert_eq!(cleared, Tile::new(tiles[0].bounds()));
@@ -1194,6 +1345,15 @@ mod tests {
             let mut f = Film::new(1, 1);
             f.add_sample(0, 0, Vec3::new(v, v / 2.0, v / 4.0));
             f
+        };
+        let png_bytes = |f: &Film, exposure: f32| {
+            let means: Vec<[f64; 3]> = f.pixels().iter().map(Pixel::mean_f64).collect();
+            let rgb = Rgb {
+                width: f.width(),
+                height: f.height(),
+                rgb: &means,
+            };
+            png_bytes(&rgb, exposure)
         };
         let dim = film_with(0.1);
         let bright = film_with(0.2);

@@ -187,13 +187,9 @@ pub fn pixel_converged(p: &Pixel, tolerance: f64) -> bool {
     let w = [0.2126, 0.7152, 0.0722];
     let n = p.count as f64;
     let mean = p.mean_f64();
+    let var = p.variance_f64();
     let mu: f64 = (0..3).map(|c| w[c] * mean[c]).sum();
-    let sigma: f64 = (0..3)
-        .map(|c| {
-            let var = (p.sum_sq[c] - p.sum[c] * p.sum[c] / n) / (n - 1.0);
-            w[c] * var.max(0.0).sqrt()
-        })
-        .sum();
+    let sigma: f64 = (0..3).map(|c| w[c] * var[c].sqrt()).sum();
     Z95 * sigma / n.sqrt() <= tolerance * mu
 }
 
