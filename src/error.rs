@@ -78,6 +78,9 @@ pub enum Error {
     /// A render produced non-finite samples while `--strict` was on.
     #[error("{0}")]
     Strict(String),
+    /// A render stopped on SIGINT or SIGTERM after saving its checkpoint.
+    #[error("{0}")]
+    Interrupted(String),
 }
 
 /// The crate-wide result.

@@ -20,6 +20,7 @@ pub mod convert;
 pub mod diff;
 pub mod effects_bench;
 pub mod efficiency;
+pub mod farm;
 pub mod film;
 pub mod integrator;
 pub mod light;

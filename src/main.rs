@@ -6,6 +6,7 @@ use embertrace::accel::{self, AccelOptions, Backend};
 use embertrace::bench::{self, BenchSettings};
 use embertrace::diff::{Image, compare};
 use embertrace::error::{Error, Result};
+use embertrace::farm::{self, Shard};
 use embertrace::film::{self, OutputOptions};
 use embertrace::integrator::{DirectStrategy, IntegratorSettings, PathTracer, Roulette};
 use embertrace::parity::{self, ParitySettings};
@@ -38,7 +39,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene (.toml, .obj, .ply, Mitsuba 3 .xml, CS184 .dae or CSE .test) to an image.
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Measure build time, memory and ray throughput of each backend.
     Bench(BenchArgs),
     /// Trace identical rays through every backend and report disagreements.
@@ -54,6 +55,9 @@ enum Command {
     /// Write any scene the renderer reads as a TOML scene, with its meshes
     /// and images beside it.
     Convert(ConvertArgs),
+    /// Combine accumulation files (shards, crops, checkpoints) into the
+    /// final image, bit for bit the one-process render.
+    Merge(MergeArgs),
 }
 
 #[derive(Args)]
@@ -309,6 +313,58 @@ struct RenderArgs {
     /// against --reference to this CSV file (passes double the spp).
     #[arg(long, value_name = "FILE")]
     convergence: Option<PathBuf>,
+    /// Render the K-th of N equal parts of every pixel's samples; -o then
+    /// writes an accumulation file (.exr) for `embertrace merge`.
+    #[arg(long, value_name = "K/N", value_parser = Shard::parse)]
+    shard: Option<Shard>,
+    /// Render only the pixels [X0, X1) x [Y0, Y1) (origin top left); -o then
+    /// writes an accumulation file (.exr) for `embertrace merge`.
+    #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"])]
+    crop: Option<Vec<u32>>,
+    /// Save the render's state (an accumulation file) to FILE as it goes, at
+    /// the end, and on SIGINT or SIGTERM.
+    #[arg(long, value_name = "FILE")]
+    checkpoint: Option<PathBuf>,
+    /// Seconds between checkpoints.
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 60.0,
+        requires = "checkpoint"
+    )]
+    checkpoint_every: f64,
+    /// Continue the render saved in FILE to -s samples per pixel (it keeps
+    /// saving to FILE unless --checkpoint names another).
+    #[arg(long, value_name = "FILE")]
+    resume: Option<PathBuf>,
+    /// Write the per-pixel variance of the mean, per channel, as EXR.
+    #[arg(long, value_name = "FILE")]
+    variance: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct MergeArgs {
+    /// Accumulation files (from render --shard, --crop or --checkpoint), in
+    /// any order.
+    #[arg(required = true)]
+    parts: Vec<PathBuf>,
+    /// The merged image (.png, .exr or .pfm), or with --accumulation an
+    /// accumulation file (.exr).
+    #[arg(short = 'o', long = "output")]
+    output: PathBuf,
+    /// Write an accumulation file for a later merge instead of the image:
+    /// the parts need then cover only a box of pixels and samples.
+    #[arg(long)]
+    accumulation: bool,
+    /// Write the per-pixel variance of the mean, per channel, as EXR.
+    #[arg(long, value_name = "FILE")]
+    variance: Option<PathBuf>,
+    /// Exposure in stops, applied to PNG output.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    /// Write a JSON report of the merge: the parts, time and peak memory.
+    #[arg(long, value_name = "FILE")]
+    report: Option<PathBuf>,
 }
 
 /// Samples per pixel at most when a time or error budget is given without -s.
@@ -351,6 +407,7 @@ const SUBCOMMANDS: &[&str] = &[
     "study",
     "plan",
     "convert",
+    "merge",
     "help",
     "-h",
     "--help",
@@ -393,12 +450,13 @@ fn main() -> ExitCode {
     }
     let cli = Cli::parse_from(argv);
     let result = match cli.command {
-        Command::Render(args) => run_render(args),
+        Command::Render(args) => run_render(*args),
         Command::Bench(args) => run_bench(args),
         Command::Parity(args) => run_parity(args),
         Command::Diff(args) => run_diff(args),
         Command::Study(args) => run_study(args),
         Command::Plan(args) => run_plan(args),
+        Command::Merge(args) => run_merge(args),
         Command::Convert(args) => Scene::load(&args.input).and_then(|scene| {
             let w = embertrace::convert::convert(&scene, &args.output)?;
             eprintln!("wrote {} ({} files)", args.output.display(), w.files.len());
@@ -407,6 +465,11 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(Error::Interrupted(m)) => {
+            eprintln!("embertrace: {m}");
+            // the shell's code for a process that SIGINT ended
+            ExitCode::from(130)
+        }
         Err(e) => {
             eprintln!("embertrace: error: {e}");
             ExitCode::FAILURE
@@ -439,18 +502,10 @@ fn write_bad_sample_map(path: &std::path::Path, w: u32, h: u32, per_pixel: &[u32
             .collect();
         return film::write_png_rgb8(path, w, h, &rgb);
     }
-    let mut map = film::Film::new(w, h);
-    for y in 0..h {
-        for x in 0..w {
-            let c = count((y * w + x) as usize) as f32;
-            map.add_sample(x, y, embertrace::math::Vec3::splat(c));
-        }
-    }
-    let opts = OutputOptions {
-        exposure: 0.0,
-        metadata: Vec::new(),
-    };
-    film::write_image(path, &map, &opts)
+    let map: Vec<[f64; 3]> = (0..w as usize * h as usize)
+        .map(|i| [count(i) as f64; 3])
+        .collect();
+    film::write_rgb(path, w, h, &map, &OutputOptions::default())
 }
 
 /// Write `value` as pretty JSON to `path`, atomically.
@@ -788,6 +843,39 @@ fn run_render(args: RenderArgs) -> Result<()> {
         ));
     }
     let reference = args.reference.as_deref().map(Image::read).transpose()?;
+    let farm_part = args.shard.is_some() || args.crop.is_some();
+    let farm = farm_part || args.checkpoint.is_some() || args.resume.is_some();
+    if farm {
+        if budget.is_progressive() || args.reference.is_some() || args.sample_map.is_some() {
+            return Err(Error::Settings(
+                "--shard, --crop, --checkpoint and --resume render a fixed spp: they do not combine with --time-limit, --target-error, -a, --reference or --sample-map".into(),
+            ));
+        }
+        if farm_part {
+            check_exr(
+                &output,
+                "-o: --shard and --crop write an accumulation file for `embertrace merge`",
+            )?;
+        }
+        if !(args.checkpoint_every > 0.0 && args.checkpoint_every.is_finite()) {
+            return Err(Error::Settings(format!(
+                "--checkpoint-every {}: expected a positive number of seconds",
+                args.checkpoint_every
+            )));
+        }
+        if let Some(c) = &args.checkpoint {
+            check_exr(c, "--checkpoint: a checkpoint is an accumulation file")?;
+            if *c == output {
+                return Err(Error::Settings(format!(
+                    "--checkpoint {} is also -o: give them different files",
+                    c.display()
+                )));
+            }
+        }
+    }
+    if let Some(v) = &args.variance {
+        check_exr(v, "--variance")?;
+    }
 
     let t0 = Instant::now();
     let scene = Scene::load(&args.scene)?;
@@ -881,7 +969,36 @@ fn run_render(args: RenderArgs) -> Result<()> {
     ));
     budget.max_spp = spp;
     let progressive = budget.is_progressive() || reference.is_some();
-    let (out, progress) = if progressive {
+    let mut part_provenance = None;
+    let (out, progress) = if farm {
+        bar.finish_and_clear();
+        let provenance = farm::Provenance {
+            version: env!("CARGO_PKG_VERSION").to_string(),
+            scene: args
+                .scene
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            scene_hash: farm::scene_hash(&scene),
+            settings: image_settings(
+                &settings,
+                &integrator,
+                backend,
+                &args.build,
+                &kernel.describe(),
+            ),
+            samples: args.shard.map_or(0..spp, |s| s.samples(spp)),
+            window: match &args.crop {
+                Some(c) => farm::crop_window([c[0], c[1], c[2], c[3]], resolution)?,
+                None => farm::full_window(resolution),
+            },
+        };
+        let out = render_farm(&args, &tracer, &camera, &settings, &provenance, &say)?;
+        if farm_part {
+            part_provenance = Some(provenance);
+        }
+        (out, None)
+    } else if progressive {
         if let Some(r) = &reference {
             if (r.width, r.height) != (w, h) {
                 return Err(Error::Settings(format!(
@@ -1009,7 +1126,13 @@ fn run_render(args: RenderArgs) -> Result<()> {
         exposure: args.exposure,
         metadata: report.metadata(),
     };
-    film::write_image(&output, &out.film, &options)?;
+    match &part_provenance {
+        Some(p) => farm::write_accumulation(&output, &out.film, p)?,
+        None => film::write_image(&output, &out.film, &options)?,
+    }
+    if let Some(path) = &args.variance {
+        write_variance(path, &out.film)?;
+    }
     if let Some(path) = &args.report {
         write_json(path, &report)?;
     }
@@ -1021,5 +1144,181 @@ fn run_render(args: RenderArgs) -> Result<()> {
         report.mrays_per_second,
         report.mpaths_per_second
     ));
+    Ok(())
+}
+
+/// Fail unless `path` names an `.exr` file that can be written.
+fn check_exr(path: &std::path::Path, what: &str) -> Result<()> {
+    film::check_output_path(path)?;
+    if film::ImageFormat::from_path(path)? != film::ImageFormat::Exr {
+        return Err(Error::Settings(format!(
+            "{}: {what}: expected an .exr file",
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
+/// The per-pixel variance of the mean, per channel, as EXR.
+fn write_variance(path: &std::path::Path, f: &film::Film) -> Result<()> {
+    let v: Vec<[f64; 3]> = f
+        .pixels()
+        .iter()
+        .map(|p| p.variance_of_mean_f64())
+        .collect();
+    film::write_rgb(path, f.width(), f.height(), &v, &OutputOptions::default())
+}
+
+/// Every setting that changes a render's image, for accumulation files:
+/// parts merge, and checkpoints resume, only under equal settings.
+fn image_settings(
+    s: &RenderSettings,
+    i: &IntegratorSettings,
+    backend: Backend,
+    build: &BuildArgs,
+    kernel: &str,
+) -> Vec<(String, String)> {
+    let roulette = match i.roulette {
+        Roulette::Throughput => "throughput".to_string(),
+        Roulette::Fixed(p) => format!("fixed {p:?}"),
+    };
+    [
+        (
+            "resolution",
+            format!("{}x{}", s.resolution[0], s.resolution[1]),
+        ),
+        ("spp", s.spp.to_string()),
+        ("seed", s.seed.to_string()),
+        ("sampler", s.sampler.to_string()),
+        ("max_depth", i.max_depth.to_string()),
+        ("light_samples", i.light_samples.to_string()),
+        ("direct", i.direct.to_string()),
+        ("roulette", roulette),
+        ("rr_depth", i.rr_depth.to_string()),
+        ("backend", backend.name().to_string()),
+        ("robust", (!build.no_robust).to_string()),
+        (
+            "bvh_quality",
+            format!("{:?}", build.bvh_quality).to_lowercase(),
+        ),
+        ("kernel", kernel.to_string()),
+        ("clamp", s.clamp.map_or("none".into(), |c| format!("{c:?}"))),
+    ]
+    .into_iter()
+    .map(|(n, v)| (n.to_string(), v))
+    .collect()
+}
+
+/// Set by SIGINT or SIGTERM while a checkpointed render runs.
+static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Render a shard, crop or checkpointed render (see [`farm::render_part`]).
+fn render_farm(
+    args: &RenderArgs,
+    tracer: &PathTracer<'_>,
+    camera: &embertrace::camera::Camera,
+    settings: &RenderSettings,
+    provenance: &farm::Provenance,
+    say: &dyn Fn(&str),
+) -> Result<render::RenderOutput> {
+    let resume = match &args.resume {
+        Some(path) => {
+            let (film, saved) = farm::read_accumulation(path)?;
+            let spp_saved = saved.spp().unwrap_or(0);
+            farm::check_resume(
+                path,
+                &saved,
+                provenance,
+                settings.sampler.same_points(spp_saved, settings.spp),
+            )?;
+            say(&format!(
+                "resuming {}: samples {}..{} of {}..{}",
+                path.display(),
+                saved.samples.start,
+                saved.samples.end,
+                provenance.samples.start,
+                provenance.samples.end
+            ));
+            Some((film, saved.samples.end))
+        }
+        None => None,
+    };
+    let checkpoint = args
+        .checkpoint
+        .clone()
+        .or_else(|| args.resume.clone())
+        .map(|path| farm::Checkpoint {
+            path,
+            every: args.checkpoint_every,
+        });
+    if checkpoint.is_some() {
+        ctrlc::set_handler(|| STOP.store(true, std::sync::atomic::Ordering::SeqCst))
+            .map_err(|e| Error::Settings(format!("cannot catch SIGINT and SIGTERM: {e}")))?;
+    }
+    let part = farm::Part {
+        provenance: provenance.clone(),
+        resume,
+        checkpoint: checkpoint.clone(),
+        stop: &STOP,
+    };
+    let po = farm::render_part(tracer, camera, settings, part, say)?;
+    if po.interrupted {
+        let c = checkpoint.expect("only a checkpointed render stops early");
+        return Err(Error::Interrupted(format!(
+            "interrupted: {} holds samples {}..{} of {}..{}; no image written; continue with --resume {}",
+            c.path.display(),
+            provenance.samples.start,
+            po.done,
+            provenance.samples.start,
+            provenance.samples.end,
+            c.path.display()
+        )));
+    }
+    Ok(po.out)
+}
+
+fn run_merge(args: MergeArgs) -> Result<()> {
+    if args.accumulation {
+        check_exr(&args.output, "--accumulation")?;
+    } else {
+        film::check_output_path(&args.output)?;
+    }
+    if let Some(v) = &args.variance {
+        check_exr(v, "--variance")?;
+    }
+    if let Some(r) = &args.report {
+        embertrace::report::check_report_path(r)?;
+    }
+    let (merged, prov, mut report) = farm::merge(&args.parts, args.accumulation)?;
+    if args.accumulation {
+        farm::write_accumulation(&args.output, &merged, &prov)?;
+    } else {
+        let options = OutputOptions {
+            exposure: args.exposure,
+            metadata: prov
+                .metadata()
+                .into_iter()
+                .filter(|(n, _)| n != "embertrace.kind")
+                .collect(),
+        };
+        film::write_image(&args.output, &merged, &options)?;
+    }
+    if let Some(v) = &args.variance {
+        write_variance(v, &merged)?;
+    }
+    report.peak_memory_bytes = farm::peak_memory_bytes();
+    if let Some(r) = &args.report {
+        write_json(r, &report)?;
+    }
+    eprintln!(
+        "merged {} parts into {} ({} x {} pixels, samples {}..{}) in {:.2} s",
+        args.parts.len(),
+        args.output.display(),
+        merged.width(),
+        merged.height(),
+        prov.samples.start,
+        prov.samples.end,
+        report.seconds
+    );
     Ok(())
 }

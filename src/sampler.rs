@@ -51,6 +51,20 @@ pub enum SamplerKind {
 }
 
 impl SamplerKind {
+    /// Whether renders of `a` and of `b` samples per pixel draw the same
+    /// points for the samples they share: always for `independent`; for the
+    /// Sobol samplers when `a` and `b` round up to the same power of two
+    /// (their index permutations span that many samples). A checkpoint may
+    /// be resumed to another spp only then.
+    pub fn same_points(self, a: u32, b: u32) -> bool {
+        match self {
+            SamplerKind::Independent => true,
+            SamplerKind::Sobol | SamplerKind::ZSobol => {
+                a.max(1).next_power_of_two() == b.max(1).next_power_of_two()
+            }
+        }
+    }
+
     /// The name used on the command line and in reports.
     pub fn name(self) -> &'static str {
         match self {

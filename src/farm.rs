@@ -1,0 +1,1011 @@
+//! Rendering beyond one process: sample-range shards (`--shard K/N`), pixel
+//! windows (`--crop`), accumulation files, `merge`, and checkpoints.
+//!
+//! An **accumulation file** is a render's state: for every pixel of its
+//! window, the fixed-point sums of its samples and of their squares and the
+//! sample count (see [`crate::film::FRACTION_BITS`]), plus where it came
+//! from (the [`Provenance`]). It is one OpenEXR part whose channels are
+//! grouped into layers, so image tools open it:
+//!
+//! - `R`, `G`, `B` (`f32`): the pixel means, the image so far;
+//! - `variance.R`, `variance.G`, `variance.B` (`f32`): the variance of each
+//!   mean;
+//! - `count` (`u32`): samples accepted per pixel;
+//! - `sum.R.0` ... `sum.B.3` and `sumsq.R.0` ... `sumsq.B.3` (`u32`): the
+//!   exact 128-bit accumulators, four 32-bit limbs each, limb 0 the lowest.
+//!
+//! The data window is the crop window, inside a display window of the whole
+//! image, so a viewer places a crop where it belongs. Provenance goes in
+//! text attributes named `embertrace.*`.
+//!
+//! Because the sums are integers, adding parts in any order gives the same
+//! bits, and a merge of shards or crops equals the one-process render bit for
+//! bit: the samples themselves are the same (every sample is seeded by seed,
+//! pixel and sample index, and pixels are traced in the same 4 x 4 blocks of
+//! the image's grid), and their sums no longer depend on the order.
+
+use crate::error::{Error, Result};
+use crate::film::{Film, TileBounds};
+use crate::scene::Scene;
+use std::fmt::Write as _;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+/// `--shard K/N`: the K-th (1-based) of N equal parts of every pixel's
+/// samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    /// Which part, `1..=n`.
+    pub k: u32,
+    /// How many parts.
+    pub n: u32,
+}
+
+impl Shard {
+    /// Parse `K/N` with `1 <= K <= N`.
+    pub fn parse(s: &str) -> std::result::Result<Shard, String> {
+        let bad = || format!("--shard {s}: expected K/N with 1 <= K <= N, for example 3/8");
+        let (k, n) = s.split_once('/').ok_or_else(bad)?;
+        let k: u32 = k.trim().parse().map_err(|_| bad())?;
+        let n: u32 = n.trim().parse().map_err(|_| bad())?;
+        if k == 0 || k > n {
+            return Err(bad());
+        }
+        Ok(Shard { k, n })
+    }
+
+    /// The sample indices of this shard of a render of `spp` samples per
+    /// pixel: `floor((k - 1) spp / n) .. floor(k spp / n)`, so the N shards
+    /// tile `0..spp` (some are empty when `n > spp`).
+    pub fn samples(&self, spp: u32) -> Range<u32> {
+        let at = |k: u32| (u64::from(k) * u64::from(spp) / u64::from(self.n)) as u32;
+        at(self.k - 1)..at(self.k)
+    }
+}
+
+/// `--crop X0 Y0 X1 Y1`: the half-open pixel window `[x0, x1) x [y0, y1)`,
+/// origin top left, checked against the image size.
+pub fn crop_window(c: [u32; 4], resolution: [u32; 2]) -> Result<TileBounds> {
+    let [x0, y0, x1, y1] = c;
+    let [w, h] = resolution;
+    if !(x0 < x1 && x1 <= w && y0 < y1 && y1 <= h) {
+        return Err(Error::Settings(format!(
+            "--crop {x0} {y0} {x1} {y1}: expected X0 < X1 <= {w} and Y0 < Y1 <= {h} (half-open, in pixels, origin top left)"
+        )));
+    }
+    Ok(TileBounds {
+        x0,
+        y0,
+        width: x1 - x0,
+        height: y1 - y0,
+    })
+}
+
+/// The whole image as a window.
+pub fn full_window(resolution: [u32; 2]) -> TileBounds {
+    TileBounds {
+        x0: 0,
+        y0: 0,
+        width: resolution[0],
+        height: resolution[1],
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Hashes
+// ---------------------------------------------------------------------------
+
+/// 64-bit FNV-1a (Fowler, Noll, Vo): a hash that is the same on every
+/// machine and Rust version, unlike `std`'s, for provenance that farm nodes
+/// compare. Not for security: it tells honest mistakes apart.
+#[derive(Debug, Clone, Copy)]
+pub struct Fnv(u64);
+
+impl Default for Fnv {
+    fn default() -> Self {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv {
+    /// Hash more bytes.
+    pub fn bytes(&mut self, b: &[u8]) {
+        for &x in b {
+            self.0 = (self.0 ^ u64::from(x)).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+
+    /// Hash a slice of 32-bit words (floats by their bits), length first.
+    fn words(&mut self, w: impl ExactSizeIterator<Item = u32>) {
+        self.bytes(&(w.len() as u64).to_le_bytes());
+        for x in w {
+            self.bytes(&x.to_le_bytes());
+        }
+    }
+
+    /// The hash so far.
+    pub fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+impl std::fmt::Write for Fnv {
+    fn write_str(&mut self, s: &str) -> std::fmt::Result {
+        self.bytes(s.as_bytes());
+        Ok(())
+    }
+}
+
+/// A hash of everything in `scene` that can change an image: geometry
+/// (bit patterns), materials, textures, lights, camera, lens, resolution and
+/// render defaults. Left out: where the file lies (farm nodes mount it at
+/// different paths) and the notes and warnings loading printed. Every field
+/// is named, so a field added to [`Scene`] fails to compile here until it is
+/// considered.
+pub fn scene_hash(scene: &Scene) -> u64 {
+    let Scene {
+        source: _,
+        positions,
+        indices,
+        normals,
+        needle,
+        tri_material,
+        materials,
+        meshes,
+        tri_uv,
+        tri_shading_normals,
+        spheres,
+        sphere_material,
+        environment,
+        environment_map,
+        point_lights,
+        directional_lights,
+        camera,
+        lens,
+        focal_pixels,
+        resolution,
+        render,
+        notes: _,
+        warnings: _,
+    } = scene;
+    let mut h = Fnv::default();
+    let f = |v: &f32| v.to_bits();
+    h.words(
+        positions
+            .iter()
+            .flat_map(|p| p.to_array())
+            .map(|v| v.to_bits())
+            .collect::<Vec<_>>()
+            .into_iter(),
+    );
+    h.words(
+        indices
+            .iter()
+            .flatten()
+            .copied()
+            .collect::<Vec<_>>()
+            .into_iter(),
+    );
+    h.words(
+        normals
+            .iter()
+            .flat_map(|p| p.to_array())
+            .map(|v| v.to_bits())
+            .collect::<Vec<_>>()
+            .into_iter(),
+    );
+    h.words(needle.iter().map(f));
+    h.words(tri_material.iter().copied());
+    h.words(
+        tri_uv
+            .iter()
+            .flatten()
+            .flat_map(|p| p.to_array())
+            .map(|v| v.to_bits())
+            .collect::<Vec<_>>()
+            .into_iter(),
+    );
+    h.words(
+        tri_shading_normals
+            .iter()
+            .flatten()
+            .flat_map(|p| p.to_array())
+            .map(|v| v.to_bits())
+            .collect::<Vec<_>>()
+            .into_iter(),
+    );
+    h.words(sphere_material.iter().copied());
+    // the rest is small or rare: its Debug text, streamed into the hash
+    let _ = write!(
+        h,
+        "{materials:?}{meshes:?}{spheres:?}{environment:?}{environment_map:?}{point_lights:?}\
+         {directional_lights:?}{camera:?}{lens:?}{focal_pixels:?}{resolution:?}{render:?}"
+    );
+    h.finish()
+}
+
+// ---------------------------------------------------------------------------
+// Provenance
+// ---------------------------------------------------------------------------
+
+/// Prefix of the text attributes an accumulation file keeps its provenance
+/// in.
+const ATTR: &str = "embertrace.";
+
+/// Where an accumulation file came from, and what it holds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Provenance {
+    /// The embertrace version that rendered it.
+    pub version: String,
+    /// The scene file's name (for messages only; not compared).
+    pub scene: String,
+    /// [`scene_hash`] of the scene.
+    pub scene_hash: u64,
+    /// Every setting that changes the image, `name = value`, in a fixed
+    /// order: resolution, spp, seed, sampler, max depth, light samples,
+    /// direct strategy, roulette, backend, kernel, clamp. Parts merge only if
+    /// these are equal.
+    pub settings: Vec<(String, String)>,
+    /// The sample indices every pixel of the window holds.
+    pub samples: Range<u32>,
+    /// The pixel window it covers.
+    pub window: TileBounds,
+}
+
+impl Provenance {
+    /// The value of setting `name`.
+    pub fn setting(&self, name: &str) -> Option<&str> {
+        self.settings
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_str())
+    }
+
+    /// The image size, from the `resolution` setting.
+    pub fn resolution(&self) -> Option<[u32; 2]> {
+        let (w, h) = self.setting("resolution")?.split_once('x')?;
+        Some([w.parse().ok()?, h.parse().ok()?])
+    }
+
+    /// The render's samples per pixel, from the `spp` setting.
+    pub fn spp(&self) -> Option<u32> {
+        self.setting("spp")?.parse().ok()
+    }
+
+    /// A hash of the settings, for reports.
+    pub fn settings_hash(&self) -> u64 {
+        let mut h = Fnv::default();
+        for (n, v) in &self.settings {
+            let _ = writeln!(h, "{n}={v}");
+        }
+        h.finish()
+    }
+
+    /// The attributes this provenance is stored as.
+    pub fn metadata(&self) -> Vec<(String, String)> {
+        let w = self.window;
+        let mut m = vec![
+            (format!("{ATTR}kind"), "accumulation".to_string()),
+            (format!("{ATTR}version"), self.version.clone()),
+            (format!("{ATTR}scene"), self.scene.clone()),
+            (
+                format!("{ATTR}scene_hash"),
+                format!("{:016x}", self.scene_hash),
+            ),
+            (
+                format!("{ATTR}settings_hash"),
+                format!("{:016x}", self.settings_hash()),
+            ),
+            (
+                format!("{ATTR}samples"),
+                format!("{} {}", self.samples.start, self.samples.end),
+            ),
+            (
+                format!("{ATTR}window"),
+                format!("{} {} {} {}", w.x0, w.y0, w.x0 + w.width, w.y0 + w.height),
+            ),
+        ];
+        for (n, v) in &self.settings {
+            m.push((format!("{ATTR}setting.{n}"), v.clone()));
+        }
+        m
+    }
+
+    /// Read a provenance back from `path`'s attributes (sorted by name, as
+    /// [`crate::film::read_exr_metadata`] returns them).
+    fn from_metadata(path: &Path, meta: &[(String, String)]) -> Result<Provenance> {
+        let get = |name: &str| {
+            meta.iter()
+                .find(|(n, _)| n.strip_prefix(ATTR) == Some(name))
+                .map(|(_, v)| v.as_str())
+        };
+        let bad = |what: &str| {
+            Error::input(
+                path,
+                None,
+                format!("not an embertrace accumulation file ({what})"),
+            )
+        };
+        if get("kind") != Some("accumulation") {
+            return Err(bad(
+                "no embertrace.kind = accumulation attribute: write one with render --shard, --crop or --checkpoint",
+            ));
+        }
+        let nums = |name: &str, n: usize| -> Result<Vec<u32>> {
+            let v: Vec<u32> = get(name)
+                .ok_or_else(|| bad(&format!("no {ATTR}{name}")))?
+                .split_whitespace()
+                .map(|t| t.parse::<u32>())
+                .collect::<std::result::Result<_, _>>()
+                .map_err(|_| bad(&format!("{ATTR}{name} is not {n} numbers")))?;
+            if v.len() != n {
+                return Err(bad(&format!("{ATTR}{name} is not {n} numbers")));
+            }
+            Ok(v)
+        };
+        let s = nums("samples", 2)?;
+        let w = nums("window", 4)?;
+        if s[0] > s[1] || w[0] >= w[2] || w[1] >= w[3] {
+            return Err(bad("empty or inverted window or sample range"));
+        }
+        let scene_hash = u64::from_str_radix(get("scene_hash").unwrap_or(""), 16)
+            .map_err(|_| bad(&format!("no valid {ATTR}scene_hash")))?;
+        let prefix = format!("{ATTR}setting.");
+        // the settings' order is the writer's; the reader sees them sorted,
+        // which is as good for comparing
+        let settings = meta
+            .iter()
+            .filter_map(|(n, v)| Some((n.strip_prefix(&prefix)?.to_string(), v.clone())))
+            .collect();
+        let p = Provenance {
+            version: get("version").unwrap_or("").to_string(),
+            scene: get("scene").unwrap_or("").to_string(),
+            scene_hash,
+            settings,
+            samples: s[0]..s[1],
+            window: TileBounds {
+                x0: w[0],
+                y0: w[1],
+                width: w[2] - w[0],
+                height: w[3] - w[1],
+            },
+        };
+        let (Some([rw, rh]), Some(spp)) = (p.resolution(), p.spp()) else {
+            return Err(bad("no resolution or spp setting"));
+        };
+        if w[2] > rw || w[3] > rh || s[1] > spp {
+            return Err(bad("window or sample range outside the render"));
+        }
+        Ok(p)
+    }
+
+    /// Settings sorted by name, for comparing provenances whatever order
+    /// they were written or read in.
+    fn sorted_settings(&self) -> Vec<(String, String)> {
+        let mut s = self.settings.clone();
+        s.sort();
+        s
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Accumulation files
+// ---------------------------------------------------------------------------
+
+/// Names of the channels of one 128-bit accumulator: `{layer}.{c}.0..3`.
+fn limb_names(layer: &str, c: char) -> [String; 4] {
+    std::array::from_fn(|k| format!("{layer}.{c}.{k}"))
+}
+
+const RGB: [char; 3] = ['R', 'G', 'B'];
+
+/// Write `film` with its provenance as an accumulation file, atomically.
+pub fn write_accumulation(path: &Path, film: &Film, prov: &Provenance) -> Result<()> {
+    use exr::prelude::{
+        AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, ImageAttributes,
+        IntegerBounds, Layer, LayerAttributes, SmallVec, Text, Vec2, WritableImage,
+    };
+    let b = film.bounds();
+    debug_assert_eq!(b, prov.window);
+    let px = film.pixels();
+    let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
+    for (c, name) in RGB.iter().enumerate() {
+        let mean = px.iter().map(|p| p.mean_f64()[c] as f32).collect();
+        channels.push(AnyChannel::new(
+            name.to_string().as_str(),
+            FlatSamples::F32(mean),
+        ));
+        let var = px
+            .iter()
+            .map(|p| p.variance_of_mean_f64()[c] as f32)
+            .collect();
+        channels.push(AnyChannel::new(
+            format!("variance.{name}").as_str(),
+            FlatSamples::F32(var),
+        ));
+        for (layer, acc) in [("sum", 0), ("sumsq", 1)] {
+            for (k, limb) in limb_names(layer, *name).into_iter().enumerate() {
+                let v = px
+                    .iter()
+                    .map(|p| {
+                        let q = if acc == 0 { p.sum[c] } else { p.sum_sq[c] };
+                        (q >> (32 * k)) as u32
+                    })
+                    .collect();
+                channels.push(AnyChannel::new(limb.as_str(), FlatSamples::U32(v)));
+            }
+        }
+    }
+    let counts = px.iter().map(|p| p.count as u32).collect();
+    channels.push(AnyChannel::new("count", FlatSamples::U32(counts)));
+
+    let [rw, rh] = prov
+        .resolution()
+        .expect("a provenance we made has a resolution");
+    let mut attributes = LayerAttributes {
+        software_name: Text::new_or_none(concat!("embertrace ", env!("CARGO_PKG_VERSION"))),
+        layer_position: Vec2(b.x0 as i32, b.y0 as i32),
+        ..LayerAttributes::default()
+    };
+    for (name, value) in prov.metadata() {
+        attributes.other.insert(
+            Text::from_slice_unchecked(name.as_bytes()),
+            AttributeValue::Text(Text::from_slice_unchecked(value.as_bytes())),
+        );
+    }
+    let layer = Layer::new(
+        (b.width as usize, b.height as usize),
+        attributes,
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(channels),
+    );
+    let mut image = Image::from_layer(layer);
+    image.attributes = ImageAttributes::new(IntegerBounds::new((0, 0), (rw as usize, rh as usize)));
+    crate::film::write_atomically(path, |w| {
+        image.write().to_buffered(w).map_err(|e| match e {
+            exr::error::Error::Io(e) => Error::io(path, e),
+            other => Error::Settings(format!(
+                "{}: cannot encode OpenEXR: {other}",
+                path.display()
+            )),
+        })
+    })
+}
+
+/// Read an accumulation file: its film (window and exact sums) and
+/// provenance.
+pub fn read_accumulation(path: &Path) -> Result<(Film, Provenance)> {
+    use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
+    let meta = crate::film::read_exr_metadata(path)?;
+    let prov = Provenance::from_metadata(path, &meta)?;
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::BufReader::new(file))
+        .map_err(|e| Error::input(path, None, format!("not a readable OpenEXR file: {e}")))?;
+    let layer = image.layer_data;
+    let w = prov.window;
+    let (lw, lh) = (layer.size.width(), layer.size.height());
+    let pos = layer.attributes.layer_position;
+    if (lw, lh) != (w.width as usize, w.height as usize)
+        || (pos.x(), pos.y()) != (w.x0 as i32, w.y0 as i32)
+    {
+        return Err(Error::input(
+            path,
+            None,
+            format!(
+                "its pixels ({lw} x {lh} at {}, {}) do not match its embertrace.window",
+                pos.x(),
+                pos.y()
+            ),
+        ));
+    }
+    let channel = |name: &str| -> Result<&[u32]> {
+        let ch = layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.eq(name))
+            .ok_or_else(|| Error::input(path, None, format!("no `{name}` channel")))?;
+        match &ch.sample_data {
+            FlatSamples::U32(v) => Ok(v),
+            _ => Err(Error::input(
+                path,
+                None,
+                format!("channel `{name}` is not 32-bit unsigned"),
+            )),
+        }
+    };
+    let mut film = Film::window(w);
+    let counts = channel("count")?;
+    for (p, &n) in film.pixels_mut().iter_mut().zip(counts) {
+        p.count = u64::from(n);
+    }
+    for (c, name) in RGB.iter().enumerate() {
+        for (layer_name, acc) in [("sum", 0), ("sumsq", 1)] {
+            let limbs = limb_names(layer_name, *name)
+                .map(|n| channel(&n))
+                .into_iter()
+                .collect::<Result<Vec<_>>>()?;
+            for (i, p) in film.pixels_mut().iter_mut().enumerate() {
+                let q = (0..4).fold(0u128, |q, k| q | u128::from(limbs[k][i]) << (32 * k));
+                if acc == 0 {
+                    p.sum[c] = q;
+                } else {
+                    p.sum_sq[c] = q;
+                }
+            }
+        }
+    }
+    let too_many = film
+        .pixels()
+        .iter()
+        .any(|p| p.count > u64::from(prov.samples.end - prov.samples.start));
+    if too_many {
+        return Err(Error::input(
+            path,
+            None,
+            "a pixel counts more samples than its sample range holds",
+        ));
+    }
+    Ok((film, prov))
+}
+
+// ---------------------------------------------------------------------------
+// Merging
+// ---------------------------------------------------------------------------
+
+/// One part as `merge` saw it.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct PartInfo {
+    /// The file.
+    pub path: PathBuf,
+    /// Its sample indices, `[start, end)`.
+    pub samples: [u32; 2],
+    /// Its window, `[x0, y0, x1, y1]`.
+    pub window: [u32; 4],
+    /// Seconds to read it.
+    pub read_seconds: f64,
+}
+
+/// What `merge` did.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct MergeReport {
+    /// The parts, in the order given.
+    pub parts: Vec<PartInfo>,
+    /// The merged window, `[x0, y0, x1, y1]`.
+    pub window: [u32; 4],
+    /// The merged sample range.
+    pub samples: [u32; 2],
+    /// Whether that is the whole render (every pixel, every sample).
+    pub complete: bool,
+    /// The scene's hash and the settings' hash, hexadecimal.
+    pub scene_hash: String,
+    /// Hash of the settings every part shares.
+    pub settings_hash: String,
+    /// Seconds for the whole merge (reading, checking, adding).
+    pub seconds: f64,
+    /// Peak resident memory of the process, bytes (Linux; 0 elsewhere).
+    pub peak_memory_bytes: u64,
+}
+
+fn window_array(w: TileBounds) -> [u32; 4] {
+    [w.x0, w.y0, w.x0 + w.width, w.y0 + w.height]
+}
+
+/// A part's box in (x, y, sample) space, half-open.
+fn part_box(p: &Provenance) -> [[u64; 2]; 3] {
+    let w = window_array(p.window).map(u64::from);
+    [
+        [w[0], w[2]],
+        [w[1], w[3]],
+        [u64::from(p.samples.start), u64::from(p.samples.end)],
+    ]
+}
+
+fn volume(b: &[[u64; 2]; 3]) -> u128 {
+    b.iter().map(|[a, z]| u128::from(z - a)).product()
+}
+
+/// Peak resident set size of this process (`VmHWM` in `/proc/self/status`),
+/// 0 where that cannot be read.
+pub fn peak_memory_bytes() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("VmHWM:"))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        })
+        .map_or(0, |kb| kb * 1024)
+}
+
+/// Merge accumulation files, in any order. Every part must come from the
+/// same scene, version and settings; no two may hold the same sample of the
+/// same pixel; together they must fill a box of pixels and samples exactly,
+/// and, unless `partial`, the whole render (every pixel, samples `0..spp`).
+/// Returns the merged film, its provenance and a report; fails with a
+/// one-line message naming the part at fault.
+pub fn merge(parts: &[PathBuf], partial: bool) -> Result<(Film, Provenance, MergeReport)> {
+    let start = std::time::Instant::now();
+    if parts.is_empty() {
+        return Err(Error::Settings("merge: no parts given".into()));
+    }
+    // read every provenance first: a mismatch fails before any pixel is read
+    let mut provs = Vec::with_capacity(parts.len());
+    for path in parts {
+        let meta = crate::film::read_exr_metadata(path)?;
+        provs.push(Provenance::from_metadata(path, &meta)?);
+    }
+    let (first, p0) = (&parts[0], &provs[0]);
+    let s0 = p0.sorted_settings();
+    for (path, p) in parts.iter().zip(&provs).skip(1) {
+        let at_fault = |what: String| {
+            Error::Settings(format!(
+                "merge: {}: {what} (the first part, {}, says otherwise); nothing written",
+                path.display(),
+                first.display()
+            ))
+        };
+        if p.version != p0.version {
+            return Err(at_fault(format!("rendered by embertrace {}", p.version)));
+        }
+        if p.scene_hash != p0.scene_hash {
+            return Err(at_fault(format!(
+                "rendered from a different scene ({}, hash {:016x})",
+                p.scene, p.scene_hash
+            )));
+        }
+        let s = p.sorted_settings();
+        if s != s0 {
+            let differs = s
+                .iter()
+                .zip(&s0)
+                .find(|(a, b)| a != b)
+                .map(|((n, v), (n0, v0))| {
+                    if n == n0 {
+                        format!("{n} = {v}, not {v0}")
+                    } else {
+                        format!("setting {n} where the first has {n0}")
+                    }
+                })
+                .unwrap_or_else(|| "a different number of settings".into());
+            return Err(at_fault(format!("rendered with other settings: {differs}")));
+        }
+    }
+    // overlaps, then coverage of the bounding box
+    let boxes: Vec<_> = provs.iter().map(part_box).collect();
+    for i in 0..boxes.len() {
+        for j in 0..i {
+            let overlap = (0..3)
+                .all(|a| boxes[i][a][0].max(boxes[j][a][0]) < boxes[i][a][1].min(boxes[j][a][1]));
+            if overlap {
+                return Err(Error::Settings(format!(
+                    "merge: part {} ({}) overlaps part {} ({}): both hold samples {}..{} of pixels in {:?}; nothing written",
+                    i + 1,
+                    parts[i].display(),
+                    j + 1,
+                    parts[j].display(),
+                    boxes[i][2][0].max(boxes[j][2][0]),
+                    boxes[i][2][1].min(boxes[j][2][1]),
+                    window_array(provs[i].window),
+                )));
+            }
+        }
+    }
+    let mut bound = boxes[0];
+    for b in &boxes[1..] {
+        for a in 0..3 {
+            bound[a] = [bound[a][0].min(b[a][0]), bound[a][1].max(b[a][1])];
+        }
+    }
+    let filled: u128 = boxes.iter().map(volume).sum();
+    let res = p0.resolution().expect("checked when read");
+    let spp = p0.spp().expect("checked when read");
+    let whole = [
+        [0, u64::from(res[0])],
+        [0, u64::from(res[1])],
+        [0, u64::from(spp)],
+    ];
+    if filled != volume(&bound) || (!partial && bound != whole) {
+        let target = if partial { bound } else { whole };
+        let hole = find_hole(&boxes, &target);
+        return Err(Error::Settings(format!(
+            "merge: the parts do not cover {}: no part holds sample {} of pixel ({}, {}); nothing written",
+            if partial {
+                "a box of pixels and samples"
+            } else {
+                "the whole render"
+            },
+            hole[2],
+            hole[0],
+            hole[1]
+        )));
+    }
+    // add the parts' exact sums
+    let window = TileBounds {
+        x0: bound[0][0] as u32,
+        y0: bound[1][0] as u32,
+        width: (bound[0][1] - bound[0][0]) as u32,
+        height: (bound[1][1] - bound[1][0]) as u32,
+    };
+    let mut film = Film::window(window);
+    let mut infos = Vec::with_capacity(parts.len());
+    for (path, p) in parts.iter().zip(&provs) {
+        let t = std::time::Instant::now();
+        let (part, read) = read_accumulation(path)?;
+        if read != *p {
+            return Err(Error::input(path, None, "changed while merging"));
+        }
+        add_film(&mut film, &part);
+        infos.push(PartInfo {
+            path: path.clone(),
+            samples: [p.samples.start, p.samples.end],
+            window: window_array(p.window),
+            read_seconds: t.elapsed().as_secs_f64(),
+        });
+    }
+    let prov = Provenance {
+        samples: bound[2][0] as u32..bound[2][1] as u32,
+        window,
+        ..p0.clone()
+    };
+    let report = MergeReport {
+        parts: infos,
+        window: window_array(window),
+        samples: [prov.samples.start, prov.samples.end],
+        complete: bound == whole,
+        scene_hash: format!("{:016x}", prov.scene_hash),
+        settings_hash: format!("{:016x}", prov.settings_hash()),
+        seconds: start.elapsed().as_secs_f64(),
+        peak_memory_bytes: peak_memory_bytes(),
+    };
+    Ok((film, prov, report))
+}
+
+/// Add `part`'s accumulators into `film` (the part's window lies inside).
+pub fn add_film(film: &mut Film, part: &Film) {
+    let fb = film.bounds();
+    let pb = part.bounds();
+    let pw = pb.width as usize;
+    for (row, src) in part.pixels().chunks_exact(pw.max(1)).enumerate() {
+        let y = (pb.y0 - fb.y0) as usize + row;
+        let start = y * fb.width as usize + (pb.x0 - fb.x0) as usize;
+        for (d, s) in film.pixels_mut()[start..start + pw].iter_mut().zip(src) {
+            d.merge(s);
+        }
+    }
+}
+
+/// A point of `target` that no box covers (boxes do not overlap and do not
+/// fill it): found on the grid of the boxes' own coordinates.
+fn find_hole(boxes: &[[[u64; 2]; 3]], target: &[[u64; 2]; 3]) -> [u64; 3] {
+    let cuts = |a: usize| {
+        let mut v: Vec<u64> = boxes
+            .iter()
+            .flat_map(|b| b[a])
+            .chain(target[a])
+            .filter(|&c| c >= target[a][0] && c < target[a][1])
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    };
+    let (xs, ys, ss) = (cuts(0), cuts(1), cuts(2));
+    for &s in &ss {
+        for &y in &ys {
+            for &x in &xs {
+                let p = [x, y, s];
+                if !boxes
+                    .iter()
+                    .any(|b| (0..3).all(|a| b[a][0] <= p[a] && p[a] < b[a][1]))
+                {
+                    return p;
+                }
+            }
+        }
+    }
+    // boxes outside the target only (cannot happen for a merge's bound)
+    [target[0][0], target[1][0], target[2][0]]
+}
+
+/// Check that `prov` (from a checkpoint) was made by this scene and these
+/// settings, except `spp`, which may differ when `same_points` says the
+/// sampler's points do not depend on it.
+pub fn check_resume(
+    path: &Path,
+    prov: &Provenance,
+    now: &Provenance,
+    same_points: bool,
+) -> Result<()> {
+    let fail = |what: String| {
+        Err(Error::Settings(format!(
+            "--resume {}: {what}; render it again or resume with the settings it was made with",
+            path.display()
+        )))
+    };
+    if prov.version != now.version {
+        return fail(format!("written by embertrace {}", prov.version));
+    }
+    if prov.scene_hash != now.scene_hash {
+        return fail("made from a different scene (or the scene changed)".into());
+    }
+    let now_s = now.sorted_settings();
+    for ((n, v), (_, v_now)) in prov.sorted_settings().iter().zip(&now_s) {
+        if v != v_now && !(n == "spp" && same_points) {
+            return fail(format!("made with {n} = {v}, not {v_now}"));
+        }
+    }
+    if prov.settings.len() != now_s.len() {
+        return fail("made with other settings".into());
+    }
+    if prov.window != now.window {
+        return fail(format!(
+            "covers pixels {:?}, this render {:?}",
+            window_array(prov.window),
+            window_array(now.window)
+        ));
+    }
+    if prov.samples.start != now.samples.start || prov.samples.end > now.samples.end {
+        return fail(format!(
+            "holds samples {}..{}, this render wants {}..{}",
+            prov.samples.start, prov.samples.end, now.samples.start, now.samples.end
+        ));
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------
+// Rendering a part, with checkpoints
+// ---------------------------------------------------------------------------
+
+/// Where and how often a render saves its state.
+#[derive(Debug, Clone)]
+pub struct Checkpoint {
+    /// The accumulation file.
+    pub path: PathBuf,
+    /// Seconds between saves (the render saves after the first pass that
+    /// ends this long after the last save, and at the end).
+    pub every: f64,
+}
+
+/// The longest a pass of a checkpointed render aims to take: the render
+/// stops (on a signal) and saves only between passes.
+pub const PASS_SECONDS: f64 = 2.0;
+
+/// A part of a render: its window, its samples, where it saves.
+pub struct Part<'a> {
+    /// What every accumulation file of this render says (its `samples` are
+    /// the part's target range).
+    pub provenance: Provenance,
+    /// The state to continue from (`--resume`): its film and the samples it
+    /// holds, `provenance.samples.start .. done`.
+    pub resume: Option<(Film, u32)>,
+    /// Save here as the render goes, and at the end.
+    pub checkpoint: Option<Checkpoint>,
+    /// Set (by a signal handler) to stop after the current pass.
+    pub stop: &'a std::sync::atomic::AtomicBool,
+}
+
+/// How a part's render ended.
+#[derive(Debug)]
+pub struct PartOutput {
+    /// The film and counts, as a one-process render returns them.
+    pub out: crate::render::RenderOutput,
+    /// Samples `provenance.samples.start .. done` are in the film.
+    pub done: u32,
+    /// Whether it stopped early (on `stop`).
+    pub interrupted: bool,
+    /// Checkpoints written.
+    pub saves: u32,
+}
+
+/// Render `part`: its window, samples `part.provenance.samples` of every
+/// pixel (`settings.spp` is the whole render's spp, which samplers depend
+/// on), in passes of whole sample indices when checkpointing (passes give
+/// the same bits as one run), saving the state every `every` seconds and at
+/// the end, and stopping early when `part.stop` is set.
+pub fn render_part(
+    tracer: &dyn crate::render::Radiance,
+    camera: &crate::camera::Camera,
+    settings: &crate::render::RenderSettings,
+    part: Part<'_>,
+    say: &dyn Fn(&str),
+) -> Result<PartOutput> {
+    use crate::integrator::RayCounts;
+    use crate::render::{ClampReport, NonFiniteReport, RenderOutput, RenderSettings, render_pass};
+    use std::sync::atomic::Ordering;
+    use std::time::Instant;
+
+    let prov = &part.provenance;
+    let target = prov.samples.clone();
+    let (mut film, mut done) = match part.resume {
+        Some((film, done)) => (film, done),
+        None => (Film::window(prov.window), target.start),
+    };
+    let pool = crate::render::thread_pool(settings.threads)?;
+    let (mut rays, mut nonfinite, mut clamp) = (
+        RayCounts::default(),
+        NonFiniteReport::default(),
+        ClampReport::default(),
+    );
+    let save = |film: &Film, done: u32| -> Result<()> {
+        if let Some(c) = &part.checkpoint {
+            let p = Provenance {
+                samples: target.start..done,
+                ..prov.clone()
+            };
+            write_accumulation(&c.path, film, &p)?;
+        }
+        Ok(())
+    };
+    let start = Instant::now();
+    let mut last_save = Instant::now();
+    let mut per_sample: Option<f64> = None;
+    let mut saves = 0;
+    let mut interrupted = false;
+    while done < target.end {
+        if part.stop.load(Ordering::SeqCst) {
+            interrupted = true;
+            break;
+        }
+        let left = target.end - done;
+        let n = match (&part.checkpoint, per_sample) {
+            (None, _) => left,
+            (Some(_), None) => 1,
+            (Some(c), Some(t)) => {
+                let aim = c.every.min(PASS_SECONDS);
+                ((aim / t).floor().clamp(1.0, f64::from(left))) as u32
+            }
+        };
+        let rs = RenderSettings {
+            first_sample: done,
+            spp: n,
+            total_spp: Some(settings.spp),
+            ..*settings
+        };
+        let t = Instant::now();
+        let pass = render_pass(tracer, camera, &rs, &mut film, None, &pool, &|| {});
+        per_sample = Some(t.elapsed().as_secs_f64() / f64::from(n));
+        rays.add(&pass.rays);
+        nonfinite.merge(&pass.nonfinite);
+        clamp.merge(&pass.clamp);
+        done += n;
+        if let Some(c) = &part.checkpoint {
+            if done < target.end && last_save.elapsed().as_secs_f64() >= c.every {
+                save(&film, done)?;
+                saves += 1;
+                say(&format!(
+                    "checkpoint {}: samples {}..{done} of {}..{}",
+                    c.path.display(),
+                    target.start,
+                    target.start,
+                    target.end
+                ));
+                last_save = Instant::now();
+            }
+        }
+    }
+    if part.checkpoint.is_some() {
+        save(&film, done)?;
+        saves += 1;
+    }
+    nonfinite.finish(prov.resolution().map_or(1, |r| r[0]));
+    Ok(PartOutput {
+        out: RenderOutput {
+            film,
+            rays,
+            nonfinite,
+            clamp,
+            seconds: start.elapsed().as_secs_f64(),
+            threads: pool.current_num_threads(),
+        },
+        done,
+        interrupted,
+        saves,
+    })
+}
