@@ -84,7 +84,7 @@ pub struct BenchReport {
 
 /// The median of `v` (the mean of the middle two for an even count), the
 /// statistic every benchmark of the crate reports.
-pub(crate) fn median(mut v: Vec<f64>) -> f64 {
+pub fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(|a, b| a.total_cmp(b));
     let n = v.len();
     if n % 2 == 1 {

@@ -69,6 +69,12 @@ pub const SUM_SATURATION: f64 = 18_446_744_073_709_551_616.0;
 #[inline]
 pub fn to_fixed(v: f64) -> u128 {
     debug_assert!(v >= 0.0 && v.is_finite(), "fixed point takes finite v >= 0");
+    // the common case, v < 2^24: scaling by a power of two is exact, and
+    // the conversion truncates, which is the floor for v >= 0
+    let scaled = v * (1u64 << FRACTION_BITS) as f64;
+    if scaled < 18_446_744_073_709_551_616.0 {
+        return u128::from(scaled as u64);
+    }
     let bits = v.to_bits();
     let exp = ((bits >> 52) & 0x7ff) as i32;
     if exp == 0 {
@@ -168,6 +174,7 @@ impl Pixel {
 
 /// Adds `rgb` to `pixel` when it is finite; otherwise counts it in
 /// `non_finite`.
+#[inline]
 fn accept(pixel: &mut Pixel, non_finite: &mut u64, rgb: Vec3) {
     if rgb.is_finite() {
         pixel.add(rgb);
@@ -236,6 +243,7 @@ impl Tile {
     ///
     /// If `(x, y)` is outside the tile: the renderer's pixel loop produces the
     /// coordinates, so this is a bug, not bad input.
+    #[inline]
     pub fn add_sample(&mut self, x: u32, y: u32, rgb: Vec3) {
         let b = self.bounds;
         assert!(b.contains(x, y), "pixel ({x}, {y}) is outside tile {b:?}");
