@@ -1167,6 +1167,61 @@ pub fn read_pfm(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
 mod tests {
     use super::*;
 
+    #[test]
+    fn fixed_point_is_exact_floor_and_saturates() {
+        let unit = 1u128 << FRACTION_BITS;
+        assert_eq!(to_fixed(0.0), 0);
+        assert_eq!(to_fixed(1.0), unit);
+        assert_eq!(to_fixed(0.75), 3 * unit / 4);
+        // below one unit: nothing; f32 values from 2^-40 up are exact
+        assert_eq!(to_fixed(0.5f64.powi(41)), 0);
+        assert_eq!(to_fixed(0.5f64.powi(40)), 1);
+        assert_eq!(to_fixed(f64::MIN_POSITIVE / 4.0), 0);
+        let x = f64::from(0.1f32);
+        assert_eq!(from_fixed(to_fixed(x)), x);
+        // the fast path (v < 2^24) and the bit path agree at the seam
+        let below = f64::from_bits((16_777_216.0f64).to_bits() - 1);
+        assert_eq!(to_fixed(below), (below * unit as f64) as u128);
+        assert_eq!(to_fixed(16_777_216.0), 16_777_216 * unit);
+        assert_eq!(to_fixed(3.5e9), 3_500_000_000 * unit);
+        // saturation at 2^64
+        assert_eq!(to_fixed(SUM_SATURATION / 2.0), (1 << 103));
+        assert_eq!(to_fixed(SUM_SATURATION), ADDEND_MAX);
+        assert_eq!(to_fixed(f64::MAX), ADDEND_MAX);
+        // 2^24 samples at the most cannot overflow
+        assert!(ADDEND_MAX.checked_mul(1 << 24).is_some());
+    }
+
+    #[test]
+    fn pixel_sums_do_not_depend_on_order() {
+        let samples: Vec<Vec3> = (0..1000)
+            .map(|i| {
+                let t = i as f32;
+                Vec3::new(
+                    (t * 0.37).sin().abs() * 1e3,
+                    1e-7 * t,
+                    (t * 1.3).cos().abs(),
+                )
+            })
+            .collect();
+        let sum = |order: &mut dyn Iterator<Item = &Vec3>| {
+            let mut p = Pixel::default();
+            for s in order {
+                p.add(*s);
+            }
+            p
+        };
+        let forward = sum(&mut samples.iter());
+        let backward = sum(&mut samples.iter().rev());
+        let mut halves = sum(&mut samples[500..].iter());
+        halves.merge(&sum(&mut samples[..500].iter()));
+        assert_eq!(forward, backward);
+        assert_eq!(forward, halves);
+        // and the mean is the f64 mean to within the truncation
+        let exact: f64 = samples.iter().map(|s| f64::from(s.x)).sum::<f64>() / 1000.0;
+        assert!((forward.mean_f64()[0] - exact).abs() < 1e-9);
+    }
+
     /// A film whose pixel (x, y) holds one sample that differs per pixel and
     /// channel, including values that would expose rounding or reordering.
     fn gradient_film(width: u32, height: u32) -> Film {

@@ -994,7 +994,9 @@ fn run_render(args: RenderArgs) -> Result<()> {
             },
         };
         let out = render_farm(&args, &tracer, &camera, &settings, &provenance, &say)?;
-        if farm_part {
+        // a part, or a checkpointed render's .exr: the state itself (whose
+        // R, G, B are the image), so merge can take it too
+        if farm_part || film::ImageFormat::from_path(&output)? == film::ImageFormat::Exr {
             part_provenance = Some(provenance);
         }
         (out, None)

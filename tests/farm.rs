@@ -293,6 +293,13 @@ fn a_checkpointed_render_stopped_by_sigint_resumes_to_the_same_bits() {
     // the checkpoint now holds every sample
     let (_, prov) = farm::read_accumulation(&d.join("ck.exr")).unwrap();
     assert_eq!(prov.samples, 0..1024);
+    // with a checkpoint, -o .exr is the state too: merge takes it alone
+    let (_, prov) = farm::read_accumulation(&d.join("two.exr")).unwrap();
+    assert_eq!(prov.samples, 0..1024);
+    assert_eq!(
+        merged(d, &["two.exr"], "three.exr"),
+        pixels(&d.join("one.exr"))
+    );
 }
 
 #[test]
