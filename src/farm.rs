@@ -115,12 +115,18 @@ impl Fnv {
         }
     }
 
-    /// Hash a slice of 32-bit words (floats by their bits), length first.
-    fn words(&mut self, w: impl ExactSizeIterator<Item = u32>) {
-        self.bytes(&(w.len() as u64).to_le_bytes());
+    /// Hash a sequence of `len` items as 32-bit words, `len` first (so
+    /// that consecutive sequences cannot be confused).
+    fn words(&mut self, len: usize, w: impl IntoIterator<Item = u32>) {
+        self.bytes(&(len as u64).to_le_bytes());
         for x in w {
             self.bytes(&x.to_le_bytes());
         }
+    }
+
+    /// Hash a sequence of `len` items as floats, by their bit patterns.
+    fn floats(&mut self, len: usize, v: impl IntoIterator<Item = f32>) {
+        self.words(len, v.into_iter().map(f32::to_bits));
     }
 
     /// The hash so far.
@@ -169,52 +175,23 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         warnings: _,
     } = scene;
     let mut h = Fnv::default();
-    let f = |v: &f32| v.to_bits();
-    h.words(
-        positions
-            .iter()
-            .flat_map(|p| p.to_array())
-            .map(|v| v.to_bits())
-            .collect::<Vec<_>>()
-            .into_iter(),
+    h.floats(positions.len(), positions.iter().flat_map(|p| p.to_array()));
+    h.words(indices.len(), indices.iter().flatten().copied());
+    h.floats(normals.len(), normals.iter().flat_map(|p| p.to_array()));
+    h.floats(needle.len(), needle.iter().copied());
+    h.words(tri_material.len(), tri_material.iter().copied());
+    h.floats(
+        tri_uv.len(),
+        tri_uv.iter().flatten().flat_map(|p| p.to_array()),
     );
-    h.words(
-        indices
-            .iter()
-            .flatten()
-            .copied()
-            .collect::<Vec<_>>()
-            .into_iter(),
-    );
-    h.words(
-        normals
-            .iter()
-            .flat_map(|p| p.to_array())
-            .map(|v| v.to_bits())
-            .collect::<Vec<_>>()
-            .into_iter(),
-    );
-    h.words(needle.iter().map(f));
-    h.words(tri_material.iter().copied());
-    h.words(
-        tri_uv
-            .iter()
-            .flatten()
-            .flat_map(|p| p.to_array())
-            .map(|v| v.to_bits())
-            .collect::<Vec<_>>()
-            .into_iter(),
-    );
-    h.words(
+    h.floats(
+        tri_shading_normals.len(),
         tri_shading_normals
             .iter()
             .flatten()
-            .flat_map(|p| p.to_array())
-            .map(|v| v.to_bits())
-            .collect::<Vec<_>>()
-            .into_iter(),
+            .flat_map(|p| p.to_array()),
     );
-    h.words(sphere_material.iter().copied());
+    h.words(sphere_material.len(), sphere_material.iter().copied());
     // the rest is small or rare: its Debug text, streamed into the hash
     let _ = write!(
         h,
