@@ -140,10 +140,7 @@ pub fn run(
     settings: &BenchSettings,
     progress: &dyn Fn(&str),
 ) -> Result<BenchReport> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(settings.threads)
-        .build()
-        .map_err(|e| Error::Settings(format!("cannot start threads: {e}")))?;
+    let pool = crate::render::thread_pool(settings.threads)?;
     let threads = pool.current_num_threads();
     let reps = settings.reps.max(1);
     // Ray sets come from the first backend (first hits decide where bounce

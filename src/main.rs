@@ -444,9 +444,10 @@ fn run_plan(args: PlanArgs) -> Result<()> {
 }
 
 fn main() -> ExitCode {
-    let mut argv: Vec<String> = std::env::args().collect();
-    if argv.len() > 1 && !SUBCOMMANDS.contains(&argv[1].as_str()) {
-        argv.insert(1, "render".to_string());
+    // arguments as the OS gives them: a path need not be UTF-8
+    let mut argv: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    if argv.len() > 1 && !SUBCOMMANDS.contains(&argv[1].to_str().unwrap_or("")) {
+        argv.insert(1, "render".into());
     }
     let cli = Cli::parse_from(argv);
     let result = match cli.command {

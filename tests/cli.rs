@@ -1020,3 +1020,123 @@ fn diff_reports_metrics_and_refuses_mismatched_images() {
         assert!(!dir.path().join("f.png").exists() && !dir.path().join("f.json").exists());
     }
 }
+
+/// Issue 21: paths need not be UTF-8. A missing scene whose name is not
+/// UTF-8 gets the one-line error (it used to panic in `std::env::args`),
+/// and such a name works as the output.
+#[cfg(unix)]
+#[test]
+fn paths_that_are_not_utf8_are_files_like_any_other() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    setup(dir.path(), &[("m.obj", GOOD_OBJ.into())]);
+    let scene = OsStr::from_bytes(b"sc\xffene.toml");
+    let out = Command::new(env!("CARGO_BIN_EXE_embertrace"))
+        .current_dir(dir.path())
+        .arg("render")
+        .arg(scene)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(err.contains("ene.toml"), "{err}");
+    let image = OsStr::from_bytes(b"out\xfe.png");
+    let out = Command::new(env!("CARGO_BIN_EXE_embertrace"))
+        .current_dir(dir.path())
+        .args(["render", "m.obj", "-q", "-r", "4", "4", "-s", "1", "-o"])
+        .arg(image)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(dir.path().join(image).is_file());
+}
+
+/// Issue 21: `-t 100000` spent tens of seconds starting threads; every
+/// command takes its threads from one place, which refuses more than
+/// `MAX_THREADS` with one line and writes nothing.
+#[test]
+fn absurd_thread_counts_are_refused_in_every_command() {
+    let dir = tempfile::tempdir().unwrap();
+    setup(dir.path(), &[("m.obj", GOOD_OBJ.into())]);
+    for args in [
+        vec![
+            "render", "m.obj", "-r", "4", "4", "-s", "1", "-t", "100000", "-o", "a.png",
+        ],
+        vec![
+            "bench", "m.obj", "--rays", "10", "--reps", "1", "-t", "100000",
+        ],
+        vec![
+            "study", "m.obj", "--out", "st", "-t", "100000", "-s", "1", "-r", "4", "4",
+        ],
+    ] {
+        let out = run(dir.path(), &args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert!(err.contains("at most 1024 threads"), "{args:?}: {err}");
+    }
+    assert!(!dir.path().join("a.png").exists());
+}
+
+/// Issue 21: a scene in which nothing emits, and a scene whose only light
+/// collapsed to zero area in f32 (the Cornell box scaled by 1e-3 and moved
+/// 1e4 from the origin), render black: each gets a warning naming why.
+#[test]
+fn scenes_that_lose_or_lack_their_light_say_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    for f in ["cornell-box.obj", "cornell-box.mtl"] {
+        std::fs::copy(scenes.join(f), dir.path().join(f)).unwrap();
+    }
+    setup(
+        dir.path(),
+        &[
+            ("m.obj", GOOD_OBJ.into()),
+            ("dark.toml", toml_with_mesh("")),
+            (
+                "far.toml",
+                "[camera]\norigin = [10000.0, 10000.001, 10000.0039]\ntarget = [10000.0, 10000.001, 10000.0]\n\
+                 up = [0, 1, 0]\nfov_y = 39.3\n\n[[mesh]]\nfile = \"cornell-box.obj\"\n\
+                 transform = { scale = 0.001, translate = [10000, 10000, 10000] }\n"
+                    .into(),
+            ),
+            (
+                "lit.toml",
+                "[camera]\norigin = [0.0, 1.0, 3.9]\ntarget = [0.0, 1.0, 0.0]\n\n[[mesh]]\nfile = \"cornell-box.obj\"\n".into(),
+            ),
+        ],
+    );
+    let warnings = |scene: &str| {
+        let out = run(
+            dir.path(),
+            &["render", scene, "-r", "8", "8", "-s", "1", "-o", "x.png"],
+        );
+        assert!(out.status.success());
+        String::from_utf8_lossy(&out.stderr)
+            .lines()
+            .filter(|l| l.starts_with("warning:"))
+            .map(str::to_string)
+            .collect::<Vec<_>>()
+    };
+    let dark = warnings("dark.toml");
+    assert!(
+        dark.iter().any(|w| w.contains("nothing emits light")),
+        "{dark:?}"
+    );
+    let far = warnings("far.toml");
+    assert!(
+        far.iter()
+            .any(|w| w.contains("far.toml:7") && w.contains("2 emitting triangles have zero area")),
+        "{far:?}"
+    );
+    assert!(
+        far.iter().any(|w| w.contains("nothing emits light")),
+        "{far:?}"
+    );
+    assert_eq!(warnings("lit.toml"), Vec::<String>::new());
+}

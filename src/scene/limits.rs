@@ -61,6 +61,21 @@ pub const MAX_DEPTH: u32 = 1024;
 /// Each costs a shadow ray at every bounce, so more is only a slower render.
 pub const MAX_LIGHT_SAMPLES: u32 = 1 << 10;
 
+/// Most render threads (`-t`): 1024. Each has its own stack and tiles;
+/// `-t 100000` spent tens of seconds starting threads for a small image.
+/// More threads than cores gain nothing.
+pub const MAX_THREADS: usize = 1024;
+
+/// Check a thread count (0 = one per core) against [`MAX_THREADS`].
+pub fn check_threads(n: usize) -> Result<(), String> {
+    if n > MAX_THREADS {
+        return Err(format!(
+            "-t {n}: at most {MAX_THREADS} threads (0 = one per core)"
+        ));
+    }
+    Ok(())
+}
+
 /// Check a resolution against [`MAX_RESOLUTION`] and [`MAX_PIXELS`].
 pub fn check_resolution(w: u64, h: u64) -> Result<(), String> {
     if w == 0 || h == 0 || w > MAX_RESOLUTION as u64 || h > MAX_RESOLUTION as u64 {

@@ -741,7 +741,7 @@ impl SceneBuilder {
                 .resize(s.indices.len(), [Vec3::ZERO; 3]);
         }
         let normal_matrix = m.matrix3.inverse().transpose();
-        let (mut out_of_range, mut degenerate) = (0usize, 0usize);
+        let (mut out_of_range, mut degenerate, mut lost_emitters) = (0usize, 0usize, 0usize);
         for (k, (t, &mat)) in mesh.indices.iter().zip(&mesh.tri_material).enumerate() {
             let mut idx = t.map(|i| i + base_vertex);
             let mut uv = mesh.uvs.get(k).copied().unwrap_or([Vec2::ZERO; 3]);
@@ -773,6 +773,13 @@ impl SceneBuilder {
             }
             let Some(n) = triangle_normal(p[0], p[1], p[2]) else {
                 degenerate += 1;
+                if s.materials[(base_material + mat) as usize]
+                    .emission
+                    .max_element()
+                    > 0.0
+                {
+                    lost_emitters += 1;
+                }
                 continue;
             };
             s.indices.push(idx);
@@ -803,6 +810,11 @@ impl SceneBuilder {
         if degenerate > 0 {
             s.notes.push(format!(
                 "{at}: mesh `{name}`: dropped {degenerate} degenerate (zero-area) triangles"
+            ));
+        }
+        if lost_emitters > 0 {
+            s.warnings.push(format!(
+                "{at}: mesh `{name}`: {lost_emitters} emitting triangles have zero area in f32 after the transform (too small for their distance from the origin?), so the light they made is gone"
             ));
         }
         let end = s.indices.len() as u32;
@@ -851,8 +863,28 @@ impl SceneBuilder {
         &mut self.scene
     }
 
-    /// Finish.
-    pub fn build(self) -> Scene {
+    /// Finish. A scene in which nothing emits (no emitting triangle or
+    /// sphere, no point, directional or environment light) renders black:
+    /// it gets a warning saying so.
+    pub fn build(mut self) -> Scene {
+        let s = &self.scene;
+        let emits = |m: u32| s.materials[m as usize].emission.max_element() > 0.0;
+        let lit = s.tri_material.iter().any(|&m| emits(m))
+            || s.sphere_material.iter().any(|&m| emits(m))
+            || s.point_lights
+                .iter()
+                .any(|l| l.intensity.max_element() > 0.0)
+            || s.directional_lights
+                .iter()
+                .any(|l| l.irradiance().max_element() > 0.0)
+            || s.environment.is_some_and(|e| e.max_element() > 0.0)
+            || s.environment_map.is_some();
+        if !lit {
+            let file = crate::error::one_line(&s.source.display().to_string()).into_owned();
+            self.scene.warnings.push(format!(
+                "{file}: nothing emits light (no emitting surface, point, directional or environment light): the image will be black"
+            ));
+        }
         self.scene
     }
 }
