@@ -12,11 +12,14 @@ use embertrace::scene::{MAX_COORDINATE, Scene};
 
 const QUAD: &str = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n";
 
-/// Load `toml` next to the unit quad `q.obj`.
+/// Load `toml` next to the unit quad `q.obj`, with a white environment
+/// appended (a scene without light gets a warning of its own, which these
+/// tests do not count).
 fn load(toml: &str) -> Scene {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("q.obj"), QUAD).unwrap();
-    std::fs::write(dir.path().join("s.toml"), toml).unwrap();
+    let lit = format!("{toml}\n[[light]]\ntype = \"environment\"\nradiance = 1.0\n");
+    std::fs::write(dir.path().join("s.toml"), lit).unwrap();
     Scene::load(&dir.path().join("s.toml")).unwrap()
 }
 
