@@ -604,7 +604,10 @@ fn bad_settings_fail_before_rendering() {
 fn triangles_placed_out_of_range_are_one_warning_and_the_render_goes_on() {
     let dir = tempfile::tempdir().unwrap();
     // the second triangle's corners reach 2e18 once scaled: out of Embree's range
-    let toml = toml_with_mesh("\n[[mesh]]\nfile = \"m.obj\"\ntransform = { scale = 2e18 }");
+    // (lit, so that the only warning is the one under test)
+    let toml = toml_with_mesh(
+        "\n[[mesh]]\nfile = \"m.obj\"\ntransform = { scale = 2e18 }\n\n[[light]]\ntype = \"environment\"\nradiance = 1.0",
+    );
     setup(dir.path(), &[("m.obj", GOOD_OBJ.into()), ("s.toml", toml)]);
     let out = run(
         dir.path(),

@@ -230,9 +230,15 @@ fn ignored_parameters_are_warned_about_by_line() {
     ))
     .unwrap();
     assert_eq!(s.triangle_count(), 1);
-    assert_eq!(s.warnings.len(), 2, "{:?}", s.warnings);
-    assert!(s.warnings[0].contains(":5:") && s.warnings[0].contains("flip_normals"));
-    assert!(s.warnings[1].contains(":4:") && s.warnings[1].contains("mystery"));
+    // the scene has no emitter, which is a warning of its own
+    let (dark, w): (Vec<&String>, Vec<&String>) = s
+        .warnings
+        .iter()
+        .partition(|w| w.contains("nothing emits light"));
+    assert_eq!(dark.len(), 1, "{:?}", s.warnings);
+    assert_eq!(w.len(), 2, "{:?}", s.warnings);
+    assert!(w[0].contains(":5:") && w[0].contains("flip_normals"));
+    assert!(w[1].contains(":4:") && w[1].contains("mystery"));
 }
 
 #[test]
