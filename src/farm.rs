@@ -718,7 +718,7 @@ pub fn merge(parts: &[PathBuf], partial: bool) -> Result<(Film, Provenance, Merg
         if read != *p {
             return Err(Error::input(path, None, "changed while merging"));
         }
-        add_film(&mut film, &part);
+        film.merge_film(&part);
         infos.push(PartInfo {
             path: path.clone(),
             samples: [p.samples.start, p.samples.end],
@@ -742,20 +742,6 @@ pub fn merge(parts: &[PathBuf], partial: bool) -> Result<(Film, Provenance, Merg
         peak_memory_bytes: peak_memory_bytes(),
     };
     Ok((film, prov, report))
-}
-
-/// Add `part`'s accumulators into `film` (the part's window lies inside).
-pub fn add_film(film: &mut Film, part: &Film) {
-    let fb = film.bounds();
-    let pb = part.bounds();
-    let pw = pb.width as usize;
-    for (row, src) in part.pixels().chunks_exact(pw.max(1)).enumerate() {
-        let y = (pb.y0 - fb.y0) as usize + row;
-        let start = y * fb.width as usize + (pb.x0 - fb.x0) as usize;
-        for (d, s) in film.pixels_mut()[start..start + pw].iter_mut().zip(src) {
-            d.merge(s);
-        }
-    }
 }
 
 /// A point of `target` that no box covers (boxes do not overlap and do not
@@ -877,8 +863,6 @@ pub struct PartOutput {
     pub done: u32,
     /// Whether it stopped early (on `stop`).
     pub interrupted: bool,
-    /// Checkpoints written.
-    pub saves: u32,
 }
 
 /// Render `part`: its window, samples `part.provenance.samples` of every
@@ -923,7 +907,6 @@ pub fn render_part(
     let start = Instant::now();
     let mut last_save = Instant::now();
     let mut per_sample: Option<f64> = None;
-    let mut saves = 0;
     let mut interrupted = false;
     while done < target.end {
         if part.stop.load(Ordering::SeqCst) {
@@ -955,7 +938,6 @@ pub fn render_part(
         if let Some(c) = &part.checkpoint {
             if done < target.end && last_save.elapsed().as_secs_f64() >= c.every {
                 save(&film, done)?;
-                saves += 1;
                 say(&format!(
                     "checkpoint {}: samples {}..{done} of {}..{}",
                     c.path.display(),
@@ -969,7 +951,6 @@ pub fn render_part(
     }
     if part.checkpoint.is_some() {
         save(&film, done)?;
-        saves += 1;
     }
     nonfinite.finish(prov.resolution().map_or(1, |r| r[0]));
     Ok(PartOutput {
@@ -983,6 +964,5 @@ pub fn render_part(
         },
         done,
         interrupted,
-        saves,
     })
 }

@@ -69,12 +69,6 @@ pub const SUM_SATURATION: f64 = 18_446_744_073_709_551_616.0;
 #[inline]
 pub fn to_fixed(v: f64) -> u128 {
     debug_assert!(v >= 0.0 && v.is_finite(), "fixed point takes finite v >= 0");
-    // the common case, v < 2^24: scaling by a power of two is exact, and
-    // the conversion truncates, which is the floor for v >= 0
-    let scaled = v * (1u64 << FRACTION_BITS) as f64;
-    if scaled < 18_446_744_073_709_551_616.0 {
-        return u128::from(scaled as u64);
-    }
     let bits = v.to_bits();
     let exp = ((bits >> 52) & 0x7ff) as i32;
     if exp == 0 {
@@ -97,7 +91,8 @@ pub fn to_fixed(v: f64) -> u128 {
 /// A fixed-point sum back as `f64` (correctly rounded, then scaled exactly).
 #[inline]
 pub fn from_fixed(q: u128) -> f64 {
-    q as f64 * (-(FRACTION_BITS as f64)).exp2()
+    const UNIT: f64 = 1.0 / (1u64 << FRACTION_BITS) as f64;
+    q as f64 * UNIT
 }
 
 /// One pixel's running sums: fixed-point integers (see [`FRACTION_BITS`]),
@@ -166,9 +161,11 @@ impl Pixel {
     /// The estimated variance of the mean per channel: [`Pixel::variance_f64`]
     /// divided by `n`; zero with fewer than two samples.
     pub fn variance_of_mean_f64(&self) -> [f64; 3] {
+        if self.count < 2 {
+            return [0.0; 3];
+        }
         let n = self.count as f64;
-        self.variance_f64()
-            .map(|v| if self.count < 2 { 0.0 } else { v / n })
+        self.variance_f64().map(|v| v / n)
     }
 }
 
@@ -332,11 +329,6 @@ impl Film {
         &mut self.pixels
     }
 
-    /// Add `n` to the count of dropped non-finite samples.
-    pub fn add_non_finite(&mut self, n: u64) {
-        self.non_finite += n;
-    }
-
     /// Index of pixel `(x, y)` (image coordinates) in `pixels`.
     fn index(&self, x: u32, y: u32) -> usize {
         assert!(
@@ -367,15 +359,31 @@ impl Film {
     /// If the tile does not lie inside the film (tiles come from
     /// [`Film::tiles`], so this is a bug).
     pub fn merge_tile(&mut self, tile: &Tile) {
-        let b = tile.bounds;
+        self.merge_window(tile.bounds, &tile.pixels);
+        self.non_finite += tile.non_finite;
+    }
+
+    /// Adds another film's accumulators (and its non-finite count) into
+    /// this one: a part of a farm render into the merged film.
+    ///
+    /// # Panics
+    ///
+    /// If the other film's window is not inside this film's.
+    pub fn merge_film(&mut self, other: &Film) {
+        self.merge_window(other.bounds(), &other.pixels);
+        self.non_finite += other.non_finite;
+    }
+
+    /// Add `pixels` (row-major over `b`) into the film's pixels under `b`.
+    fn merge_window(&mut self, b: TileBounds, pixels: &[Pixel]) {
         let f = self.bounds();
         let fits = b.x0 >= f.x0
             && b.y0 >= f.y0
             && u64::from(b.x0) + u64::from(b.width) <= u64::from(f.x0) + u64::from(f.width)
             && u64::from(b.y0) + u64::from(b.height) <= u64::from(f.y0) + u64::from(f.height);
-        assert!(fits, "tile {b:?} is outside the film's window {f:?}");
+        assert!(fits, "window {b:?} is outside the film's window {f:?}");
         if b.width > 0 {
-            for (row, tile_row) in tile.pixels.chunks_exact(b.width as usize).enumerate() {
+            for (row, tile_row) in pixels.chunks_exact(b.width as usize).enumerate() {
                 let start = self.index(b.x0, b.y0 + row as u32);
                 let film_row = &mut self.pixels[start..start + b.width as usize];
                 for (p, t) in film_row.iter_mut().zip(tile_row) {
@@ -383,7 +391,6 @@ impl Film {
                 }
             }
         }
-        self.non_finite += tile.non_finite;
     }
 
     /// A tile holding the film's current accumulators for `bounds`, to add
@@ -1179,7 +1186,7 @@ mod tests {
         assert_eq!(to_fixed(f64::MIN_POSITIVE / 4.0), 0);
         let x = f64::from(0.1f32);
         assert_eq!(from_fixed(to_fixed(x)), x);
-        // the fast path (v < 2^24) and the bit path agree at the seam
+        // both sides of 2^24
         let below = f64::from_bits((16_777_216.0f64).to_bits() - 1);
         assert_eq!(to_fixed(below), (below * unit as f64) as u128);
         assert_eq!(to_fixed(16_777_216.0), 16_777_216 * unit);
