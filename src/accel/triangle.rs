@@ -253,7 +253,10 @@ impl WatertightRay {
         // certainly in front of the plane. Self-intersection stays excluded:
         // the offset policy puts a spawned origin on the side its ray leaves,
         // where this test finds the plane behind it.
-        let unsure = (keep & !sure).bitmask() & lanes;
+        // (a hit far below the bound is a ray leaving its own triangle,
+        // whose t is noise: the exact test, which costs more than the rest
+        // of the routine, runs only from a sixteenth of the bound up)
+        let unsure = (keep & !sure & t.cmpgt(delta_t * Vec4::splat(1.0 / 16.0))).bitmask() & lanes;
         let mut mask = sure.bitmask() & lanes;
         for l in (0..4).filter(|l| unsure >> l & 1 != 0) {
             if self.plane_ahead(block, l) {
