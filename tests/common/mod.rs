@@ -30,7 +30,9 @@ impl MeshMaker {
     /// Triangle a-b-c, counter-clockwise seen from the front.
     pub fn tri(&mut self, a: Vec3, b: Vec3, c: Vec3, mat: u32) {
         let base = self.data.positions.len() as u32;
-        self.data.positions.extend([a, b, c]);
+        self.data
+            .positions
+            .extend([a, b, c].map(embertrace::math::Vec3::as_dvec3));
         self.data.indices.push([base, base + 1, base + 2]);
         self.data.tri_material.push(mat);
     }
@@ -228,5 +230,111 @@ impl Chi2 {
     /// its mean `dof`.
     pub fn z(&self) -> f64 {
         (self.stat - self.dof) / (2.0 * self.dof).sqrt()
+    }
+}
+
+/// Per-pixel statistics of an RGB image estimate: the mean and the variance
+/// of that mean for every pixel and channel, interleaved (`(y w + x) 3 + c`).
+pub struct PixelStats {
+    pub mean: Vec<f64>,
+    pub var_of_mean: Vec<f64>,
+}
+
+impl PixelStats {
+    /// The statistics of `passes` independent estimates of the same image
+    /// (interleaved RGB each): their mean, and the variance of that mean
+    /// from their spread (`ddof = 1`).
+    pub fn from_passes(passes: &[Vec<f32>]) -> PixelStats {
+        let p = passes.len() as f64;
+        assert!(passes.len() >= 2, "a spread needs two passes");
+        let n = passes[0].len();
+        let (mut mean, mut var_of_mean) = (vec![0.0; n], vec![0.0; n]);
+        for i in 0..n {
+            let m = passes.iter().map(|img| img[i] as f64).sum::<f64>() / p;
+            let ss: f64 = passes.iter().map(|img| (img[i] as f64 - m).powi(2)).sum();
+            mean[i] = m;
+            var_of_mean[i] = ss / (p - 1.0) / p;
+        }
+        PixelStats { mean, var_of_mean }
+    }
+
+    /// The whole image's mean per channel and the variance of that mean: the
+    /// sum of the pixels' variances over the pixel count squared, since each
+    /// pixel draws random numbers of its own (seed, pixel, sample index), so
+    /// that pixels are independent. Summing a thousand or more pixels'
+    /// estimates makes the variance estimate stable, so a normal quantile
+    /// applies.
+    pub fn image_mean(&self) -> ([f64; 3], [f64; 3]) {
+        let n = (self.mean.len() / 3) as f64;
+        let (mut m, mut v) = ([0.0; 3], [0.0; 3]);
+        for (i, (x, s)) in self.mean.iter().zip(&self.var_of_mean).enumerate() {
+            m[i % 3] += x;
+            v[i % 3] += s;
+        }
+        (m.map(|x| x / n), v.map(|x| x / (n * n)))
+    }
+}
+
+/// A z-test of the whole image's mean, channel by channel, against a
+/// reference's: `|ours - ref| <= z sqrt(var_ours + var_ref) + systematic ref`.
+pub struct MeanTest {
+    pub ours: [f64; 3],
+    pub reference: [f64; 3],
+    /// Standard error of the difference, per channel.
+    pub se: [f64; 3],
+    /// The normal quantile (Sidak-corrected by the caller).
+    pub z: f64,
+    /// Relative slack for differences that are there by design.
+    pub systematic: f64,
+}
+
+impl MeanTest {
+    pub fn new(ours: &PixelStats, reference: &PixelStats, z: f64, systematic: f64) -> MeanTest {
+        let ((mo, vo), (mr, vr)) = (ours.image_mean(), reference.image_mean());
+        MeanTest {
+            ours: mo,
+            reference: mr,
+            se: [0, 1, 2].map(|c| (vo[c] + vr[c]).sqrt()),
+            z,
+            systematic,
+        }
+    }
+
+    /// The band of channel `c`.
+    pub fn band(&self, c: usize) -> f64 {
+        self.z * self.se[c] + self.systematic * self.reference[c].abs()
+    }
+
+    /// The band of channel `c` relative to the reference's mean: the
+    /// smallest uniform bias this test is sure to see is about this plus
+    /// the noise's share of it.
+    pub fn relative_band(&self, c: usize) -> f64 {
+        self.band(c) / self.reference[c].abs()
+    }
+
+    /// The channels that fail with our image multiplied by `scale` (1 for
+    /// the test itself; `1.01` asks whether a 1 % bias would be seen).
+    pub fn failing_channels(&self, scale: f64) -> Vec<usize> {
+        (0..3)
+            .filter(|&c| (scale * self.ours[c] - self.reference[c]).abs() > self.band(c))
+            .collect()
+    }
+
+    /// One line per channel for `--nocapture`.
+    pub fn report(&self, name: &str) -> String {
+        (0..3)
+            .map(|c| {
+                let d = self.ours[c] - self.reference[c];
+                format!(
+                    "{name} channel {c}: ours {:.6}, reference {:.6}, difference {:+.4} % ({:+.2} se), band {:.4} % of the mean",
+                    self.ours[c],
+                    self.reference[c],
+                    100.0 * d / self.reference[c],
+                    d / self.se[c],
+                    100.0 * self.relative_band(c)
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
     }
 }
