@@ -9,8 +9,7 @@
 //! the scene, `pi r^2`, as pbrt-v4's `DistantLight::Phi` has it.
 
 use super::DeltaLightSample;
-use crate::math::{SurfacePoint, Vec3, luminance, spawn_ray};
-use std::f32::consts::PI;
+use crate::math::{SurfacePoint, Vec3, spawn_ray};
 
 /// A directional (distant) light.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -62,9 +61,10 @@ impl DirectionalLight {
     }
 
     /// Power for light selection in a scene whose bounding sphere has radius
-    /// `scene_radius`: luminance of `E pi r^2`.
-    pub fn power(&self, scene_radius: f32) -> f32 {
-        PI * scene_radius * scene_radius * luminance(self.irradiance).max(0.0)
+    /// `scene_radius`: luminance of `E pi r^2`, in `f64`.
+    pub fn power(&self, scene_radius: f32) -> f64 {
+        let r = scene_radius as f64;
+        std::f64::consts::PI * r * r * super::luminance_f64(self.irradiance).max(0.0)
     }
 }
 
@@ -104,6 +104,6 @@ mod tests {
         assert_eq!(huge.direction(), -Vec3::Y);
         let light = DirectionalLight::new(Vec3::X, Vec3::ONE).unwrap();
         // luminance 1, r = 2: pi * 4
-        assert!((light.power(2.0) - 4.0 * PI).abs() < 1e-5);
+        assert!((light.power(2.0) - 4.0 * std::f64::consts::PI).abs() < 1e-12);
     }
 }

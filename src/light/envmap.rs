@@ -262,9 +262,9 @@ impl EnvironmentMap {
     /// luminance `L` that is `pi^2 r^2 L`, the power the uniform environment
     /// gets in [`crate::light::Lights`], so both kinds weigh the same when they
     /// shine the same.
-    pub fn power(&self, scene_radius: f32) -> f32 {
+    pub fn power(&self, scene_radius: f32) -> f64 {
         let r = scene_radius as f64;
-        (std::f64::consts::PI * r * r * self.luminance_integral / 4.0) as f32
+        std::f64::consts::PI * r * r * self.luminance_integral / 4.0
     }
 
     /// Distribution coordinates (patch space) of map coordinates `uv`.
@@ -372,7 +372,7 @@ mod tests {
         assert!(rel(env.luminance_integral(), 4.0 * std::f64::consts::PI * lum) < 1e-12);
         // the uniform environment's power in Lights::new: pi^2 r^2 L (f32)
         let r = 3.5f32;
-        assert!(rel(env.power(r) as f64, (PI * PI * r * r * luminance(l)) as f64) < 1e-6);
+        assert!(rel(env.power(r), (PI * PI * r * r * luminance(l)) as f64) < 1e-6);
     }
 
     #[test]

@@ -13,7 +13,10 @@
 //! cone on a sphere seen from
 //! outside; a uniform direction for the uniform environment; the map's own
 //! distribution for the environment map ([`envmap`]). Lights with zero power
-//! get probability zero.
+//! get probability zero. Powers are computed in `f64` and scaled so that the
+//! largest is 1 before they become the selection table's `f32` weights: a
+//! light whose radiance is finite but whose power overflows `f32` (a point
+//! light of 1e38 W/sr) is chosen like any other, never given weight zero.
 
 pub mod directional;
 pub mod envmap;
@@ -25,7 +28,7 @@ pub use envmap::{EnvironmentMap, EnvironmentSample};
 pub use point::PointLight;
 
 use crate::math::Ray;
-use crate::math::{Frame, SurfacePoint, Vec2, Vec3, luminance, spawn_ray, spawn_ray_to};
+use crate::math::{Frame, SurfacePoint, Vec2, Vec3, spawn_ray, spawn_ray_to};
 use crate::sampling::{
     Discrete, square_to_uniform_sphere, square_to_uniform_sphere_pdf, square_to_uniform_triangle,
 };
@@ -251,12 +254,43 @@ pub struct Lights {
 
 const NO_LIGHT: u32 = u32::MAX;
 
+const PI_F64: f64 = std::f64::consts::PI;
+
+/// Luminance (Rec. 709 weights, as [`crate::math::luminance`]) in `f64`: finite for any
+/// finite colour.
+pub(crate) fn luminance_f64(c: Vec3) -> f64 {
+    0.2126 * c.x as f64 + 0.7152 * c.y as f64 + 0.0722 * c.z as f64
+}
+
+/// The selection table's `f32` weights for light powers computed in `f64`:
+/// each divided by the largest, so none overflows, and a positive power too
+/// small beside the largest for `f32` kept at the smallest normal `f32`, so
+/// no light that shines is never chosen (any positive probability keeps the
+/// estimate unbiased). Powers that are zero, negative or not finite weigh 0.
+fn selection_weights(powers: &[f64]) -> Vec<f32> {
+    let top = powers
+        .iter()
+        .copied()
+        .filter(|p| p.is_finite())
+        .fold(0.0, f64::max);
+    powers
+        .iter()
+        .map(|&p| {
+            if top > 0.0 && p.is_finite() && p > 0.0 {
+                ((p / top) as f32).max(f32::MIN_POSITIVE)
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
 impl Lights {
     /// Collect the lights of `scene`.
     pub fn new(scene: &Scene) -> Self {
         let mut area = Vec::new();
         let mut light_of_prim = vec![NO_LIGHT; scene.primitive_count()];
-        let mut weights = Vec::new();
+        let mut weights: Vec<f64> = Vec::new();
         let n_tris = scene.triangle_count() as u32;
         let mut prim = 0;
         while prim < scene.primitive_count() as u32 {
@@ -296,7 +330,7 @@ impl Lights {
             };
             let sides = if m.two_sided { 2.0 } else { 1.0 };
             light_of_prim[prim as usize] = area.len() as u32;
-            weights.push(luminance(m.emission).max(0.0) * a * PI * sides);
+            weights.push(luminance_f64(m.emission).max(0.0) * a as f64 * PI_F64 * sides);
             area.push(AreaLight {
                 prim,
                 le: m.emission,
@@ -319,7 +353,8 @@ impl Lights {
         weights.extend(scene.point_lights.iter().map(|l| l.power()));
         weights.extend(scene.directional_lights.iter().map(|l| l.power(r)));
         if let Some(env) = scene.environment {
-            weights.push(luminance(env).max(0.0) * PI * PI * r * r);
+            let r = r as f64;
+            weights.push(luminance_f64(env).max(0.0) * PI_F64 * PI_F64 * r * r);
         }
         if let Some(map) = &scene.environment_map {
             weights.push(map.power(r));
@@ -331,7 +366,7 @@ impl Lights {
             directionals: scene.directional_lights.clone(),
             environment: scene.environment,
             environment_map: scene.environment_map.clone(),
-            select: Discrete::new(&weights),
+            select: Discrete::new(&selection_weights(&weights)),
         }
     }
 
@@ -639,5 +674,36 @@ impl SphereCone {
         let local = Vec3::new(sin_alpha * phi.cos(), sin_alpha * phi.sin(), cos_alpha);
         let n = -self.axis.to_world(local);
         self.center + self.radius * n
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::SceneBuilder;
+
+    #[test]
+    fn powers_beyond_f32_are_weighed_in_f64() {
+        assert_eq!(selection_weights(&[4.0, 1.0, 0.0]), [1.0, 0.25, 0.0]);
+        let w = selection_weights(&[f64::MAX, 1.0, -1.0, f64::NAN, f64::INFINITY]);
+        assert_eq!(w, [1.0, f32::MIN_POSITIVE, 0.0, 0.0, 0.0]);
+        assert_eq!(selection_weights(&[0.0, 0.0]), [0.0, 0.0]);
+    }
+
+    /// A point light of 1e38 W/sr: its power `4 pi I` overflows `f32`,
+    /// which gave it weight 0 beside a weak light (and nothing to sample
+    /// alone).
+    #[test]
+    fn a_point_light_whose_power_overflows_f32_is_chosen_by_its_power() {
+        let mut scene = SceneBuilder::new(std::path::Path::new("t.toml")).build();
+        scene.point_lights = vec![
+            PointLight::new(Vec3::Y, Vec3::splat(1e38)),
+            PointLight::new(Vec3::Y, Vec3::ONE),
+        ];
+        let lights = Lights::new(&scene);
+        assert_eq!(lights.select.pmf(0), 1.0);
+        assert!(lights.select.pmf(1) > 0.0, "the weak light keeps a chance");
+        scene.point_lights.truncate(1);
+        assert!(!Lights::new(&scene).is_empty());
     }
 }

@@ -10,8 +10,7 @@
 //! luminance of `4 pi I`.
 
 use super::DeltaLightSample;
-use crate::math::{SurfacePoint, Vec3, luminance, spawn_ray_to};
-use std::f32::consts::PI;
+use crate::math::{SurfacePoint, Vec3, spawn_ray_to};
 
 /// A point light.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -80,9 +79,10 @@ impl PointLight {
         })
     }
 
-    /// Power for light selection: luminance of `4 pi I`.
-    pub fn power(&self) -> f32 {
-        4.0 * PI * luminance(self.intensity).max(0.0)
+    /// Power for light selection: luminance of `4 pi I`, in `f64` (in
+    /// `f32` it overflows from I = 2.7e37 W/sr).
+    pub fn power(&self) -> f64 {
+        4.0 * std::f64::consts::PI * super::luminance_f64(self.intensity).max(0.0)
     }
 }
 
@@ -147,6 +147,9 @@ mod tests {
     #[test]
     fn power_is_four_pi_intensity() {
         let light = PointLight::new(Vec3::ZERO, Vec3::splat(2.0));
-        assert!((light.power() - 8.0 * PI).abs() < 1e-5);
+        assert!((light.power() - 8.0 * std::f64::consts::PI).abs() < 1e-12);
+        // finite radiance, power beyond f32
+        let strong = PointLight::new(Vec3::ZERO, Vec3::splat(1e38));
+        assert!((strong.power() / (4e38 * std::f64::consts::PI) - 1.0).abs() < 1e-6);
     }
 }
