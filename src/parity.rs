@@ -609,12 +609,15 @@ mod tests {
         };
         for z in [0.0, 1.0] {
             let base = m.positions.len() as u32;
-            m.positions.extend([
+            for p in [
                 Vec3::new(-1.0, -1.0, z),
                 Vec3::new(1.0, -1.0, z),
                 Vec3::new(1.0, 1.0, z),
                 Vec3::new(-1.0, 1.0, z),
-            ]);
+            ] {
+                // (the mesh's positions may be kept in f64)
+                m.positions.push(p.into());
+            }
             m.indices.push([base, base + 1, base + 2]);
             m.indices.push([base, base + 2, base + 3]);
         }
