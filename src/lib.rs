@@ -34,5 +34,6 @@ pub mod report;
 pub mod sampler;
 pub mod sampling;
 pub mod scene;
+pub mod settings;
 pub mod study;
 pub mod texture;

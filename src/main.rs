@@ -17,7 +17,8 @@ use embertrace::render::{self, RenderSettings};
 use embertrace::report::RenderReport;
 use embertrace::report::{ErrorEstimate, ProgressiveReport};
 use embertrace::sampler::SamplerKind;
-use embertrace::scene::{MAX_PIXELS, MAX_RESOLUTION, Scene, limits};
+use embertrace::scene::Scene;
+use embertrace::settings::{self, Flags, ResolutionFlag};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -416,24 +417,14 @@ const SUBCOMMANDS: &[&str] = &[
 ];
 
 /// `embertrace plan`.
-/// Light samples per shading point for `-l` (see
-/// [`RenderDefaults::light_samples_for`]), checked against the limit.
-fn light_samples(scene: &Scene, l: Option<u32>) -> Result<u32> {
-    let n = scene.render.light_samples_for(l);
-    limits::check_light_samples(n).map_err(|m| Error::Settings(format!("-l: {m}")))?;
-    Ok(n as u32)
-}
-
 fn run_plan(args: PlanArgs) -> Result<()> {
     let scene = Scene::load(&args.scene)?;
-    if let Some(m) = args.max_depth {
-        limits::check_max_depth(m as u64).map_err(|e| Error::Settings(format!("-m: {e}")))?;
-    }
-    let settings = IntegratorSettings {
-        max_depth: args.max_depth.unwrap_or(scene.render.max_depth),
-        ..IntegratorSettings::default()
+    let flags = Flags {
+        max_depth: args.max_depth,
+        ..Flags::default()
     };
-    let plan = Plan::new(&scene, &settings);
+    let settings = settings::resolve(&scene.render, scene.resolution, &flags)?;
+    let plan = Plan::new(&scene, &settings.integrator);
     if args.json {
         print!("{}", plan.json());
     } else {
@@ -533,35 +524,30 @@ fn run_study(args: StudyArgs) -> Result<()> {
         "auto" => ReferenceChoice::Auto,
         p => ReferenceChoice::File(PathBuf::from(p)),
     };
+    settings::check_spp(
+        args.reference_spp as u64,
+        &format!("--reference-spp {}", args.reference_spp),
+    )
+    .map_err(Error::Settings)?;
     let scene = Scene::load(&args.scene)?;
-    let resolution = match &args.resolution {
-        Some(r) => [r[0], r[1]],
-        None => scene.resolution,
+    let flags = Flags {
+        spp: args.spp,
+        max_depth: args.max_depth,
+        light_samples: args.light_samples,
+        resolution: args.resolution.as_deref().map(|r| [r[0], r[1]]),
+        seed: args.seed,
+        threads: args.threads,
+        ..Flags::default()
     };
-    if resolution[0] == 0
-        || resolution[1] == 0
-        || resolution[0] > MAX_RESOLUTION
-        || resolution[1] > MAX_RESOLUTION
-    {
-        return Err(Error::Settings(format!(
-            "resolution {} x {} out of range (each side 1..={MAX_RESOLUTION})",
-            resolution[0], resolution[1]
-        )));
-    }
+    let resolved = settings::resolve(&scene.render, scene.resolution, &flags)?;
     let base = RunSettings {
-        integrator: IntegratorSettings {
-            max_depth: args.max_depth.unwrap_or(scene.render.max_depth),
-            light_samples: light_samples(&scene, args.light_samples)?,
-            rr_depth: scene.render.rr_depth,
-            direct: scene.render.direct,
-            roulette: scene.render.roulette,
-        },
-        spp: args.spp.unwrap_or(scene.render.spp).max(1),
-        seed: args.seed.unwrap_or(scene.render.seed),
+        integrator: resolved.integrator,
+        spp: resolved.spp,
+        seed: resolved.seed,
         backend: args.accel.unwrap_or_else(Backend::default_backend),
         sampler: SamplerKind::default(),
-        resolution,
-        threads: args.threads,
+        resolution: resolved.resolution,
+        threads: resolved.threads,
     };
     let opts = StudyOptions {
         out: args.out.clone(),
@@ -652,37 +638,25 @@ fn run_bench(args: BenchArgs) -> Result<()> {
         ));
     }
     let scene = Scene::load(&args.scene)?;
-    if args.effects || args.efficiency {
-        let [w, h] = [args.resolution[0], args.resolution[1]];
-        let what = if args.effects {
-            "--effects"
-        } else {
-            "--efficiency"
-        };
-        if w == 0 || h == 0 || w > MAX_RESOLUTION || h > MAX_RESOLUTION || args.spp == 0 {
-            return Err(Error::Settings(format!(
-                "{what} renders {w} x {h} at {} spp: each side 1..={MAX_RESOLUTION}, at least 1 spp",
-                args.spp
-            )));
-        }
-    }
+    // the --effects and --efficiency renders' settings
+    let flags = Flags {
+        spp: Some(args.spp),
+        resolution: Some([args.resolution[0], args.resolution[1]]),
+        threads: args.threads,
+        ..Flags::default()
+    };
+    let resolved = settings::resolve(&scene.render, scene.resolution, &flags)?;
     let backend = args
         .accel
         .as_ref()
         .and_then(|l| l.first().copied())
         .unwrap_or_else(Backend::default_backend);
-    let integrator = IntegratorSettings {
-        max_depth: scene.render.max_depth,
-        rr_depth: scene.render.rr_depth,
-        direct: scene.render.direct,
-        roulette: scene.render.roulette,
-        ..IntegratorSettings::default()
-    };
+    let integrator = resolved.integrator;
     if args.efficiency {
         let settings = embertrace::efficiency::EfficiencySettings {
             backend,
-            resolution: [args.resolution[0], args.resolution[1]],
-            spp: args.spp,
+            resolution: resolved.resolution,
+            spp: resolved.spp,
             sampler: args.sampler,
             reps: args.reps,
             options: args.build.options(),
@@ -699,10 +673,10 @@ fn run_bench(args: BenchArgs) -> Result<()> {
     if args.effects {
         let settings = embertrace::effects_bench::EffectsBenchSettings {
             backend,
-            resolution: [args.resolution[0], args.resolution[1]],
-            spp: args.spp,
+            resolution: resolved.resolution,
+            spp: resolved.spp,
             reps: args.reps,
-            threads: args.threads,
+            threads: resolved.threads,
             options: args.build.options(),
         };
         let report = embertrace::effects_bench::run(&scene, &settings, integrator, &|line| {
@@ -741,6 +715,15 @@ fn run_parity(args: ParityArgs) -> Result<()> {
         embertrace::report::check_report_path(j)?;
     }
     let scene = Scene::load(&args.scene)?;
+    // the image rendered through each backend (--image 0 skips it)
+    let flags = Flags {
+        spp: Some(args.image_spp),
+        resolution: (args.image > 0).then_some([args.image; 2]),
+        spp_flag: "--image-spp",
+        resolution_flag: ResolutionFlag::Side("--image"),
+        ..Flags::default()
+    };
+    let resolved = settings::resolve(&scene.render, scene.resolution, &flags)?;
     let backends = match args.accel {
         Some(list) => list,
         None => {
@@ -758,7 +741,8 @@ fn run_parity(args: ParityArgs) -> Result<()> {
         backends,
         options: args.build.options(),
         image_resolution: args.image,
-        image_spp: args.image_spp.max(1),
+        image_spp: resolved.spp,
+        integrator: resolved.integrator,
     };
     let report = parity::run(&scene, &settings, &|line| eprintln!("{line}"))?;
     print!("{}", report.table());
@@ -782,13 +766,6 @@ fn run_render(args: RenderArgs) -> Result<()> {
     film::check_output_path(&output)?;
     if let Some(r) = &args.report {
         embertrace::report::check_report_path(r)?;
-    }
-    if let Some(p) = args.rr {
-        if !(0.0..=1.0).contains(&p) {
-            return Err(Error::Settings(format!(
-                "--rr {p}: expected a probability in [0, 1]"
-            )));
-        }
     }
     let say = |msg: &str| {
         if !args.quiet {
@@ -881,53 +858,37 @@ fn run_render(args: RenderArgs) -> Result<()> {
     let t0 = Instant::now();
     let scene = Scene::load(&args.scene)?;
     let load_seconds = t0.elapsed().as_secs_f64();
+
+    // with a time or error budget and no -s, passes go on to BUDGET_MAX_SPP
+    let budget_spp =
+        (budget.time_limit.is_some() || budget.target_error.is_some()).then_some(BUDGET_MAX_SPP);
+    let flags = Flags {
+        spp: args.spp.or(budget_spp),
+        max_depth: args.max_depth,
+        light_samples: args.light_samples,
+        resolution: args.resolution.as_deref().map(|r| [r[0], r[1]]),
+        seed: args.seed,
+        direct: args.direct,
+        rr: args.rr,
+        rr_depth: args.rr_depth,
+        threads: args.threads,
+        tile_size: Some(args.tile_size),
+        ..Flags::default()
+    };
+    let resolved = settings::resolve(&scene.render, scene.resolution, &flags)?;
+    let (resolution, spp, seed, integrator) = (
+        resolved.resolution,
+        resolved.spp,
+        resolved.seed,
+        resolved.integrator,
+    );
+    let [w, h] = resolution;
     for note in &scene.notes {
         say(&format!("note: {note}"));
     }
     for warning in &scene.warnings {
         say(&format!("warning: {warning}"));
     }
-
-    let resolution = match &args.resolution {
-        Some(r) => [r[0], r[1]],
-        None => scene.resolution,
-    };
-    let [w, h] = resolution;
-    if w == 0
-        || h == 0
-        || w > MAX_RESOLUTION
-        || h > MAX_RESOLUTION
-        || w as u64 * h as u64 > MAX_PIXELS
-    {
-        return Err(Error::Settings(format!(
-            "resolution {w} x {h} out of range (each side 1..={MAX_RESOLUTION}, at most {MAX_PIXELS} pixels)"
-        )));
-    }
-    let spp = match args.spp {
-        None if budget.time_limit.is_some() || budget.target_error.is_some() => BUDGET_MAX_SPP,
-        s => s.unwrap_or(scene.render.spp),
-    };
-    if spp == 0 {
-        return Err(Error::Settings(
-            "-s 0: expected at least one sample per pixel".into(),
-        ));
-    }
-    // the scene file's values were checked when it loaded; these are the flags'
-    let flag = |name: &str, r: std::result::Result<(), String>| {
-        r.map_err(|m| Error::Settings(format!("{name}: {m}")))
-    };
-    flag("-s", limits::check_spp(spp as u64))?;
-    if let Some(m) = args.max_depth {
-        flag("-m", limits::check_max_depth(m as u64))?;
-    }
-    let seed = args.seed.unwrap_or(scene.render.seed);
-    let integrator = IntegratorSettings {
-        max_depth: args.max_depth.unwrap_or(scene.render.max_depth),
-        light_samples: light_samples(&scene, args.light_samples)?,
-        direct: args.direct.unwrap_or(scene.render.direct),
-        roulette: args.rr.map_or(scene.render.roulette, Roulette::Fixed),
-        rr_depth: args.rr_depth.unwrap_or(scene.render.rr_depth),
-    };
     let backend = args.accel.unwrap_or_else(Backend::default_backend);
 
     let t1 = Instant::now();
@@ -944,8 +905,8 @@ fn run_render(args: RenderArgs) -> Result<()> {
         spp,
         first_sample: 0,
         seed,
-        threads: args.threads,
-        tile_size: args.tile_size,
+        threads: resolved.threads,
+        tile_size: resolved.tile_size,
         sampler: args.sampler,
         clamp: args.clamp,
     };

@@ -344,8 +344,8 @@ fn compare_images(
     other: &dyn Accelerator,
     res: u32,
     spp: u32,
+    settings: IntegratorSettings,
 ) -> Result<ImageParity> {
-    let settings = IntegratorSettings::default();
     let camera = scene.make_camera(res, res);
     let rs = RenderSettings {
         total_spp: None,
@@ -410,6 +410,8 @@ pub struct ParitySettings {
     pub image_resolution: u32,
     /// Samples per pixel of the image comparison.
     pub image_spp: u32,
+    /// Estimator settings of the image comparison.
+    pub integrator: IntegratorSettings,
 }
 
 /// Run the comparison.
@@ -456,6 +458,7 @@ pub fn run(
                 other.as_ref(),
                 settings.image_resolution,
                 settings.image_spp,
+                settings.integrator,
             )?
         } else {
             ImageParity {

@@ -28,6 +28,7 @@ use crate::progressive::{Budget, render_progressive};
 use crate::render::RenderSettings;
 use crate::sampler::SamplerKind;
 use crate::scene::Scene;
+use crate::settings;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -77,10 +78,24 @@ impl RunSettings {
             v.parse::<u32>()
                 .map_err(|_| format!("{name}={v}: expected a whole number"))
         };
+        // the checks every command makes of -s, -m and -l
+        let label = format!("{name}={value}");
         match name {
-            "spp" => self.spp = number(value)?.max(1),
-            "max_depth" => self.integrator.max_depth = number(value)?,
-            "light_samples" => self.integrator.light_samples = number(value)?.max(1),
+            "spp" => {
+                let n = number(value)?;
+                settings::check_spp(n as u64, &label)?;
+                self.spp = n;
+            }
+            "max_depth" => {
+                let n = number(value)?;
+                settings::check_max_depth(n as u64, &label)?;
+                self.integrator.max_depth = n;
+            }
+            "light_samples" => {
+                let n = number(value)?;
+                settings::check_light_samples(n as u64, &label)?;
+                self.integrator.light_samples = n;
+            }
             "rr_depth" => self.integrator.rr_depth = number(value)?,
             "direct" => self.integrator.direct = value.parse::<DirectStrategy>()?,
             "rr" => {
@@ -338,7 +353,7 @@ pub fn run(
             let path = opts.out.join("reference.exr");
             let mut base = opts.base;
             base.seed = opts.base.seed.wrapping_add(REFERENCE_SEED_OFFSET);
-            base.spp = opts.reference_spp.max(1);
+            base.spp = opts.reference_spp;
             base.sampler = SamplerKind::Independent;
             let key = base.reference_key(scene_path, base.spp);
             let cached = path.exists()
@@ -569,7 +584,17 @@ mod tests {
         assert_eq!(c[0].0, "max_depth=0 sampler=independent");
         assert_eq!(c[5].1.integrator.max_depth, 2);
         assert_eq!(c[5].1.sampler, SamplerKind::Sobol);
-        for bad in ["depth=1", "spp", "spp=1,,2", "rr=2", "direct=foo"] {
+        for bad in [
+            "depth=1",
+            "spp",
+            "spp=1,,2",
+            "rr=2",
+            "direct=foo",
+            "spp=0",
+            "light_samples=0",
+            "max_depth=1025",
+            "spp=16777217",
+        ] {
             let r = parse_vary(bad).and_then(|p| {
                 combinations(&base(), &[p])
                     .map(|_| ())

@@ -4,8 +4,11 @@
 //! settings refused by every command, long tokens quoted short, and a light
 //! too strong for `f32` power still sampled.
 
-use std::path::Path;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+
+const TRIANGLE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 
 fn run(dir: &Path, args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_embertrace"))
@@ -13,6 +16,155 @@ fn run(dir: &Path, args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("embertrace runs")
+}
+
+/// Every file under `dir`, recursively, with its bytes (through links).
+fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut files = BTreeMap::new();
+    let mut todo = vec![dir.to_path_buf()];
+    while let Some(d) = todo.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                todo.push(p);
+            } else {
+                files.insert(p.clone(), std::fs::read(&p).unwrap_or_default());
+            }
+        }
+    }
+    files
+}
+
+/// The one error line of a refused command (exit 1, no panic).
+fn refused(out: &Output, what: &str) -> String {
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(1), "{what}: {err}");
+    assert!(!err.contains("panicked"), "{what}: {err}");
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 1, "{what}: expected one line, got {err}");
+    lines[0].to_string()
+}
+
+/// One settings resolver: `study`, `bench --effects`, `bench --efficiency`
+/// and `parity` refuse what `render` refuses (study turned `-s 0` into 1 and
+/// checked neither the depth nor the pixel limit).
+#[test]
+fn every_command_refuses_what_render_refuses() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    std::fs::write(dir.join("m.obj"), TRIANGLE_OBJ).unwrap();
+    let before = snapshot(dir);
+    // the cheap ones first: before the resolver, study rendered them
+    let cases: [(&[&str], &str); 7] = [
+        (&["-s", "0"], "-s 0"),
+        (&["-l", "0"], "-l 0"),
+        (&["-m", "5000"], "0..=1024"),
+        (&["-l", "1025"], "1..=1024"),
+        (&["-r", "0", "4"], "out of range"),
+        (&["-r", "32768", "16385"], "pixels"),
+        (&["-s", "16777217"], "1..=16777216"),
+    ];
+    for (flags, expect) in cases {
+        let has = |f: &str| flags.contains(&f);
+        let mut render = vec!["render", "m.obj", "-q", "-o", "x.png"];
+        let mut study = vec!["study", "m.obj", "-q", "--out", "st"];
+        if !has("-r") {
+            render.extend(["-r", "4", "4"]);
+            study.extend(["-r", "4", "4"]);
+        }
+        if !has("-s") {
+            study.extend(["-s", "1", "--reference-spp", "1"]);
+        }
+        render.extend(flags);
+        study.extend(flags);
+        let r = refused(&run(dir, &render), &format!("render {flags:?}"));
+        let s = refused(&run(dir, &study), &format!("study {flags:?}"));
+        assert!(r.contains(expect), "render {flags:?}: {r}");
+        assert!(s.contains(expect), "study {flags:?}: {s}");
+        if !has("-m") && !has("-l") {
+            for mode in ["--effects", "--efficiency"] {
+                let mut bench = vec!["bench", "m.obj", mode, "--reps", "1"];
+                if !has("-r") {
+                    bench.extend(["-r", "4", "4"]);
+                }
+                bench.extend(flags);
+                let b = refused(&run(dir, &bench), &format!("bench {mode} {flags:?}"));
+                assert!(b.contains(expect), "bench {mode} {flags:?}: {b}");
+            }
+        }
+        assert_eq!(snapshot(dir), before, "{flags:?}: files written");
+    }
+    for (args, expect) in [
+        (
+            vec![
+                "study", "m.obj", "--out", "st", "-r", "4", "4", "--vary", "spp=1,0",
+            ],
+            "spp=0",
+        ),
+        (
+            vec![
+                "study",
+                "m.obj",
+                "--out",
+                "st",
+                "-r",
+                "4",
+                "4",
+                "--vary",
+                "max_depth=5000",
+            ],
+            "0..=1024",
+        ),
+        (
+            vec![
+                "study",
+                "m.obj",
+                "--out",
+                "st",
+                "-r",
+                "4",
+                "4",
+                "--vary",
+                "light_samples=0",
+            ],
+            "light_samples=0",
+        ),
+        (
+            vec![
+                "study",
+                "m.obj",
+                "--out",
+                "st",
+                "-r",
+                "4",
+                "4",
+                "--reference-spp",
+                "0",
+            ],
+            "--reference-spp 0",
+        ),
+        (
+            vec![
+                "parity",
+                "m.obj",
+                "--rays",
+                "10",
+                "--image",
+                "4",
+                "--image-spp",
+                "0",
+            ],
+            "--image-spp 0",
+        ),
+        (
+            vec!["parity", "m.obj", "--rays", "10", "--image", "40000"],
+            "--image 40000",
+        ),
+    ] {
+        let line = refused(&run(dir, &args), &format!("{args:?}"));
+        assert!(line.contains(expect), "{args:?}: `{line}` lacks `{expect}`");
+        assert_eq!(snapshot(dir), before, "{args:?}: files written");
+    }
 }
 
 /// A point light whose power `4 pi I` overflows `f32` (I = 1e38 W/sr) is

@@ -1,0 +1,299 @@
+//! The one settings resolver: what a render uses, from a scene's defaults
+//! and the command line's flags, checked against the limits of
+//! [`crate::scene::limits`] in one place.
+//!
+//! Every command that renders or plans a render (`render`, `study`, `bench
+//! --effects` and `--efficiency`, `parity`'s image, `plan`) calls
+//! [`resolve`], and `study --vary` checks each value with the same
+//! `check_*` functions, so a setting one command refuses every command
+//! refuses, in the same words. A flag overrides the scene; a value of zero
+//! where at least one is needed (`-s 0`, `-l 0`, `--tile-size 0`) is an
+//! error, never silently raised to one. Errors name the flag as the user
+//! wrote it (`-s 0: ...`).
+
+use crate::error::{Error, Result};
+use crate::integrator::{DirectStrategy, IntegratorSettings, Roulette};
+use crate::scene::{MAX_RESOLUTION, RenderDefaults, limits};
+
+/// Tile side in pixels when a command does not say (`render --tile-size`'s
+/// default).
+pub const DEFAULT_TILE_SIZE: u32 = 16;
+
+/// How a command names its resolution flag in errors.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ResolutionFlag {
+    /// Width and height, as `-r W H`.
+    WidthHeight(&'static str),
+    /// One side of a square image, as `parity --image SIDE`.
+    Side(&'static str),
+}
+
+/// A command's flags that bear on a render; `None` where the scene decides.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Flags {
+    /// Samples per pixel (`-s`).
+    pub spp: Option<u32>,
+    /// Maximum bounces (`-m`).
+    pub max_depth: Option<u32>,
+    /// Light samples per shading point (`-l`; per light for CS184 scenes).
+    pub light_samples: Option<u32>,
+    /// Image size (`-r W H`).
+    pub resolution: Option<[u32; 2]>,
+    /// Random seed (`--seed`).
+    pub seed: Option<u64>,
+    /// Direct-lighting strategy (`--direct`).
+    pub direct: Option<DirectStrategy>,
+    /// Fixed Russian-roulette continuation probability (`--rr`).
+    pub rr: Option<f32>,
+    /// First bounce at which roulette may end a path (`--rr-depth`).
+    pub rr_depth: Option<u32>,
+    /// Render threads (`-t`; 0 = one per core).
+    pub threads: usize,
+    /// Tile side (`--tile-size`) [`DEFAULT_TILE_SIZE`].
+    pub tile_size: Option<u32>,
+    /// The name of the samples-per-pixel flag in errors (`-s`).
+    pub spp_flag: &'static str,
+    /// The name of the resolution flag in errors (`-r`).
+    pub resolution_flag: ResolutionFlag,
+}
+
+impl Default for Flags {
+    fn default() -> Self {
+        Flags {
+            spp: None,
+            max_depth: None,
+            light_samples: None,
+            resolution: None,
+            seed: None,
+            direct: None,
+            rr: None,
+            rr_depth: None,
+            threads: 0,
+            tile_size: None,
+            spp_flag: "-s",
+            resolution_flag: ResolutionFlag::WidthHeight("-r"),
+        }
+    }
+}
+
+/// Everything a render's image depends on that a command line can set.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// Estimator settings.
+    pub integrator: IntegratorSettings,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Image size.
+    pub resolution: [u32; 2],
+    /// Random seed.
+    pub seed: u64,
+    /// Render threads (0 = one per core).
+    pub threads: usize,
+    /// Tile side in pixels.
+    pub tile_size: u32,
+}
+
+/// The settings `flags` ask for over the scene's `defaults` and
+/// `resolution`, or the first one out of range.
+pub fn resolve(defaults: &RenderDefaults, resolution: [u32; 2], flags: &Flags) -> Result<Settings> {
+    let settings = |m: String| Error::Settings(m);
+    let spp = flags.spp.unwrap_or(defaults.spp);
+    check_spp(spp as u64, &flag_label(flags.spp_flag, flags.spp, "spp")).map_err(settings)?;
+
+    let max_depth = flags.max_depth.unwrap_or(defaults.max_depth);
+    check_max_depth(
+        max_depth as u64,
+        &flag_label("-m", flags.max_depth, "max_depth"),
+    )
+    .map_err(settings)?;
+
+    // `-l 0` is refused before a per-light scene turns it into its count
+    let l_label = flag_label("-l", flags.light_samples, "light_samples");
+    if flags.light_samples == Some(0) {
+        check_light_samples(0, &l_label).map_err(settings)?;
+    }
+    let light_samples = defaults.light_samples_for(flags.light_samples);
+    check_light_samples(light_samples, &l_label).map_err(settings)?;
+
+    let [w, h] = flags.resolution.unwrap_or(resolution);
+    let r_label = match (flags.resolution, flags.resolution_flag) {
+        (None, _) => "the scene's resolution".to_string(),
+        (Some(_), ResolutionFlag::WidthHeight(f)) => format!("{f} {w} {h}"),
+        (Some(_), ResolutionFlag::Side(f)) => format!("{f} {w}"),
+    };
+    check_resolution(w, h, &r_label).map_err(settings)?;
+
+    if let Some(p) = flags.rr {
+        if !(0.0..=1.0).contains(&p) {
+            return Err(settings(format!(
+                "--rr {p}: expected a probability in [0, 1]"
+            )));
+        }
+    }
+    limits::check_threads(flags.threads).map_err(settings)?;
+    let tile_size = flags.tile_size.unwrap_or(DEFAULT_TILE_SIZE);
+    check_tile_size(tile_size).map_err(settings)?;
+
+    Ok(Settings {
+        integrator: IntegratorSettings {
+            max_depth,
+            light_samples: light_samples as u32,
+            direct: flags.direct.unwrap_or(defaults.direct),
+            roulette: flags.rr.map_or(defaults.roulette, Roulette::Fixed),
+            rr_depth: flags.rr_depth.unwrap_or(defaults.rr_depth),
+        },
+        spp,
+        resolution: [w, h],
+        seed: flags.seed.unwrap_or(defaults.seed),
+        threads: flags.threads,
+        tile_size,
+    })
+}
+
+/// `-s 4` for a flag that was given, `the scene's spp` for one that was not.
+fn flag_label(flag: &str, value: Option<u32>, key: &str) -> String {
+    match value {
+        Some(v) => format!("{flag} {v}"),
+        None => format!("the scene's {key}"),
+    }
+}
+
+/// Samples per pixel, `what` naming where they came from (`-s 0`,
+/// `spp=0`): 1 ..= [`limits::MAX_SPP`].
+pub fn check_spp(spp: u64, what: &str) -> std::result::Result<(), String> {
+    if spp == 0 {
+        return Err(format!("{what}: expected at least one sample per pixel"));
+    }
+    limits::check_spp(spp).map_err(|m| format!("{what}: {m}"))
+}
+
+/// A maximum path depth: 0 ..= [`limits::MAX_DEPTH`].
+pub fn check_max_depth(depth: u64, what: &str) -> std::result::Result<(), String> {
+    limits::check_max_depth(depth).map_err(|m| format!("{what}: {m}"))
+}
+
+/// Light samples per shading point: 1 ..= [`limits::MAX_LIGHT_SAMPLES`].
+pub fn check_light_samples(n: u64, what: &str) -> std::result::Result<(), String> {
+    if n == 0 {
+        return Err(format!(
+            "{what}: expected at least one light sample per shading point"
+        ));
+    }
+    limits::check_light_samples(n).map_err(|m| format!("{what}: {m}"))
+}
+
+/// An image size against [`limits::MAX_RESOLUTION`] and
+/// [`limits::MAX_PIXELS`].
+pub fn check_resolution(w: u32, h: u32, what: &str) -> std::result::Result<(), String> {
+    limits::check_resolution(w as u64, h as u64).map_err(|m| format!("{what}: {m}"))
+}
+
+/// A tile side: 1 ..= [`MAX_RESOLUTION`] pixels (a tile larger than the
+/// largest image gains nothing).
+pub fn check_tile_size(side: u32) -> std::result::Result<(), String> {
+    if side == 0 || side > MAX_RESOLUTION {
+        return Err(format!(
+            "--tile-size {side}: expected a tile side of 1..={MAX_RESOLUTION} pixels"
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn flags() -> Flags {
+        Flags::default()
+    }
+
+    #[test]
+    fn flags_override_the_scene_and_the_rest_comes_from_it() {
+        let d = RenderDefaults {
+            spp: 8,
+            max_depth: 5,
+            seed: 7,
+            ..RenderDefaults::default()
+        };
+        let s = resolve(&d, [32, 16], &flags()).unwrap();
+        assert_eq!((s.spp, s.integrator.max_depth, s.seed), (8, 5, 7));
+        assert_eq!((s.resolution, s.tile_size), ([32, 16], DEFAULT_TILE_SIZE));
+        let f = Flags {
+            spp: Some(2),
+            max_depth: Some(0),
+            light_samples: Some(3),
+            resolution: Some([4, 4]),
+            rr: Some(0.5),
+            ..flags()
+        };
+        let s = resolve(&d, [32, 16], &f).unwrap();
+        assert_eq!((s.spp, s.integrator.max_depth), (2, 0));
+        assert_eq!((s.integrator.light_samples, s.resolution), (3, [4, 4]));
+        assert_eq!(s.integrator.roulette, Roulette::Fixed(0.5));
+    }
+
+    #[test]
+    fn zero_and_out_of_range_values_are_refused_by_name() {
+        let d = RenderDefaults::default();
+        let err = |f: Flags| resolve(&d, [8, 8], &f).unwrap_err().to_string();
+        assert!(
+            err(Flags {
+                spp: Some(0),
+                ..flags()
+            })
+            .starts_with("-s 0: ")
+        );
+        assert!(
+            err(Flags {
+                light_samples: Some(0),
+                ..flags()
+            })
+            .starts_with("-l 0: ")
+        );
+        assert!(
+            err(Flags {
+                max_depth: Some(1025),
+                ..flags()
+            })
+            .contains("0..=1024")
+        );
+        assert!(
+            err(Flags {
+                tile_size: Some(0),
+                ..flags()
+            })
+            .starts_with("--tile-size 0")
+        );
+        assert!(
+            err(Flags {
+                threads: 100_000,
+                ..flags()
+            })
+            .contains("at most 1024")
+        );
+        let big = Flags {
+            resolution: Some([32768, 16385]),
+            ..flags()
+        };
+        assert!(err(big).starts_with("-r 32768 16385: "));
+        let side = Flags {
+            resolution: Some([40000, 40000]),
+            resolution_flag: ResolutionFlag::Side("--image"),
+            ..flags()
+        };
+        assert!(err(side).starts_with("--image 40000: "));
+        // a per-light scene: `-l 0` does not become its delta lights' count
+        let per_light = RenderDefaults {
+            per_light: Some(crate::scene::LightCount {
+                sampled: 1,
+                delta: 2,
+            }),
+            ..RenderDefaults::default()
+        };
+        let f = Flags {
+            light_samples: Some(0),
+            ..flags()
+        };
+        assert!(resolve(&per_light, [8, 8], &f).is_err());
+    }
+}
