@@ -1,22 +1,33 @@
 //! Mitsuba 3 scene files: the project's own XML test scenes
 //! (`tests/data/mitsuba/*.xml`) render to Mitsuba 3's images of the same
 //! files (`*.ref.exr`, made by `make_references.py` with Mitsuba itself)
-//! within noise, block by block; and the loader's errors and warnings name
-//! the file, the line and the element.
+//! within noise, block by block and as a whole image; and the loader's
+//! errors and warnings name the file, the line and the element.
 //!
 //! **The band.** Each side is a mean of independent passes, and each keeps
 //! the variance of its pixel means (Mitsuba's in `*.var.exr`, ours from
-//! [`PASSES`] renders with different seeds). A block of pixels has the sum
+//! [`PASSES`] renders with different seeds, Owen-scrambled Sobol: each
+//! pass is an independent randomisation, so their spread is an unbiased
+//! variance estimate, and the whole image's mean varies far less than with
+//! independent samples at the same cost). A block of pixels has the sum
 //! of its pixels' variances over the pixel count squared; summing many
 //! pixels' estimates makes the block's variance estimate stable (hundreds
 //! of degrees of freedom), so a normal quantile applies. Every block must
 //! satisfy `|ours - ref| <= z sqrt(var_ours + var_ref) + SYSTEMATIC ref`, with
 //! `z` the two-sided 1e-6 quantile Sidak-corrected over every block in the
 //! file, per channel.
+//!
+//! **The whole image.** Blocks alone let a uniform bias of a few per cent
+//! pass (each block's band is wide), so each scene's whole-image mean, per
+//! channel, must satisfy the same inequality with `z` the two-sided 1e-5
+//! quantile Sidak-corrected over every scene and channel. The test asserts
+//! that this band is under [`MAX_RELATIVE_BAND`] of the mean and that our
+//! images made 1 % brighter or darker fail it in every channel of every
+//! scene.
 
 mod common;
 
-use common::sidak_z;
+use common::{MeanTest, PixelStats, sidak_z};
 use embertrace::accel::{self, AccelOptions, Backend};
 use embertrace::film::read_exr;
 use embertrace::integrator::{IntegratorSettings, PathTracer};
@@ -35,6 +46,9 @@ const BLOCK: usize = 8;
 /// tessellated disk (area short by 2.5e-4) and f32 against Mitsuba's
 /// mixed precision. Measured gaps are listed by `--nocapture`.
 const SYSTEMATIC: f64 = 2e-3;
+/// The widest whole-image band allowed, relative to the mean: half of the
+/// 1 % bias the test must see, the other half left to the noise.
+const MAX_RELATIVE_BAND: f64 = 0.005;
 /// The scenes and their block counts ((w / 8) x (h / 8)).
 const SCENES: [(&str, usize); 3] = [("cbox", 30), ("lights", 35), ("envmap", 30)];
 
@@ -71,7 +85,7 @@ fn ours(scene: &Scene) -> (usize, usize, Vec<f64>, Vec<f64>) {
             seed: 7000 + k as u64,
             threads: 0,
             tile_size: 8,
-            sampler: SamplerKind::Independent,
+            sampler: SamplerKind::Sobol,
             clamp: None,
         };
         let img = render(&tracer, &camera, &rs, &|| {})
@@ -97,7 +111,8 @@ fn ours(scene: &Scene) -> (usize, usize, Vec<f64>, Vec<f64>) {
 fn xml_scenes_match_mitsuba() {
     let blocks: usize = SCENES.iter().map(|s| s.1 * 3).sum();
     let z = sidak_z(1e-6, blocks);
-    let mut failures = Vec::new();
+    let z_mean = sidak_z(1e-5, SCENES.len() * 3);
+    let (mut failures, mut means) = (Vec::new(), Vec::new());
     for (name, count) in SCENES {
         let scene = Scene::load(&data(&format!("{name}.xml"))).unwrap();
         assert!(
@@ -139,8 +154,46 @@ fn xml_scenes_match_mitsuba() {
             }
         }
         println!("{name}: worst block at {worst:.2} of its band (z = {z:.2})");
+        let t = MeanTest::new(
+            &PixelStats {
+                mean,
+                var_of_mean: var,
+            },
+            &PixelStats {
+                mean: reference.iter().map(|&x| x as f64).collect(),
+                var_of_mean: ref_var.iter().map(|&x| x as f64).collect(),
+            },
+            z_mean,
+            SYSTEMATIC,
+        );
+        println!("{}", t.report(name));
+        for c in t.failing_channels(1.0) {
+            failures.push(format!(
+                "{name} whole image, channel {c}:\n{}",
+                t.report(name)
+            ));
+        }
+        means.push((name, t));
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+    // the whole-image test is narrow enough to see a 1 % bias
+    for (name, t) in &means {
+        for c in 0..3 {
+            assert!(
+                t.relative_band(c) < MAX_RELATIVE_BAND,
+                "{name} channel {c}: band {:.3} % of the mean",
+                100.0 * t.relative_band(c)
+            );
+        }
+        for scale in [1.01, 0.99] {
+            assert_eq!(
+                t.failing_channels(scale),
+                [0, 1, 2],
+                "{name}: our image times {scale} would pass:\n{}",
+                t.report(name)
+            );
+        }
+    }
 }
 
 /// Load `xml` as `s.xml` in a temporary folder (with a small OBJ beside it).
