@@ -74,7 +74,7 @@ struct PlanArgs {
     /// Scene file: .toml, .obj, .ply, Mitsuba 3 .xml, CS184 .dae or CSE 167/168 .test.
     scene: PathBuf,
     /// Maximum bounces (decides `indirect`) [scene default].
-    #[arg(short = 'm', long = "max-depth")]
+    #[arg(short = 'm', long = "max-depth", allow_negative_numbers = true)]
     max_depth: Option<u32>,
     /// Print JSON: `effects` (the names that are on), `kernel`, `details`.
     #[arg(long)]
@@ -97,26 +97,31 @@ struct StudyArgs {
     #[arg(long, default_value = "auto")]
     reference: String,
     /// Samples per pixel of an `auto` reference.
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = 1024, allow_negative_numbers = true)]
     reference_spp: u32,
     /// Samples per pixel [scene default].
-    #[arg(short = 's', long = "spp")]
+    #[arg(short = 's', long = "spp", allow_negative_numbers = true)]
     spp: Option<u32>,
     /// Maximum bounces [scene default].
-    #[arg(short = 'm', long = "max-depth")]
+    #[arg(short = 'm', long = "max-depth", allow_negative_numbers = true)]
     max_depth: Option<u32>,
     /// Light samples per shading point (per area light for a CS184 .dae)
     /// [scene default].
-    #[arg(short = 'l', long = "light-samples")]
+    #[arg(short = 'l', long = "light-samples", allow_negative_numbers = true)]
     light_samples: Option<u32>,
     /// Resolution: width height [scene default].
-    #[arg(short = 'r', long = "resolution", num_args = 2, value_names = ["W", "H"])]
+    #[arg(short = 'r', long = "resolution", num_args = 2, value_names = ["W", "H"], allow_negative_numbers = true)]
     resolution: Option<Vec<u32>>,
     /// Render threads; 0 = all cores.
-    #[arg(short = 't', long = "threads", default_value_t = 0)]
+    #[arg(
+        short = 't',
+        long = "threads",
+        default_value_t = 0,
+        allow_negative_numbers = true
+    )]
     threads: usize,
     /// Random seed [scene default].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     seed: Option<u64>,
     /// Base backend [embree when compiled in].
     #[arg(long)]
@@ -138,7 +143,7 @@ struct DiffArgs {
     #[arg(long, value_name = "FILE")]
     error_image: Option<PathBuf>,
     /// Error shown as white in the error image [default: the largest].
-    #[arg(long, value_name = "E")]
+    #[arg(long, value_name = "E", allow_negative_numbers = true)]
     error_scale: Option<f64>,
     /// Write the metrics as JSON too.
     #[arg(long, value_name = "FILE")]
@@ -150,7 +155,7 @@ struct ParityArgs {
     /// Scene file: .toml, .obj, .ply, Mitsuba 3 .xml, CS184 .dae or CSE 167/168 .test.
     scene: PathBuf,
     /// Rays per kind.
-    #[arg(long, default_value_t = 100_000)]
+    #[arg(long, default_value_t = 100_000, allow_negative_numbers = true)]
     rays: usize,
     /// Ray kinds, comma-separated.
     #[arg(
@@ -167,10 +172,10 @@ struct ParityArgs {
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
     /// Side of the image rendered through each backend (0 skips it).
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = 64, allow_negative_numbers = true)]
     image: u32,
     /// Samples per pixel of that image.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = 16, allow_negative_numbers = true)]
     image_spp: u32,
     #[command(flatten)]
     build: BuildArgs,
@@ -185,16 +190,16 @@ struct BenchArgs {
     #[arg(long, value_delimiter = ',')]
     accel: Option<Vec<Backend>>,
     /// Threads for the all-cores columns; 0 = all cores.
-    #[arg(short = 't', long, default_value_t = 0)]
+    #[arg(short = 't', long, default_value_t = 0, allow_negative_numbers = true)]
     threads: usize,
     /// Write the numbers as JSON too.
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
     /// Rays per kind.
-    #[arg(long, default_value_t = 200_000)]
+    #[arg(long, default_value_t = 200_000, allow_negative_numbers = true)]
     rays: usize,
     /// Repetitions per figure (the median is reported).
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
     reps: usize,
     #[command(flatten)]
     build: BuildArgs,
@@ -208,10 +213,15 @@ struct BenchArgs {
     #[arg(long, conflicts_with = "effects")]
     efficiency: bool,
     /// Resolution of the --effects and --efficiency renders: width height.
-    #[arg(short = 'r', long = "resolution", num_args = 2, value_names = ["W", "H"], default_values_t = [128, 128])]
+    #[arg(short = 'r', long = "resolution", num_args = 2, value_names = ["W", "H"], default_values_t = [128, 128], allow_negative_numbers = true)]
     resolution: Vec<u32>,
     /// Samples per pixel of the --effects and --efficiency renders.
-    #[arg(short = 's', long = "spp", default_value_t = 16)]
+    #[arg(
+        short = 's',
+        long = "spp",
+        default_value_t = 16,
+        allow_negative_numbers = true
+    )]
     spp: u32,
     /// Sampler of the --efficiency renders.
     #[arg(long, default_value_t = SamplerKind::default())]
@@ -226,23 +236,28 @@ struct RenderArgs {
     #[arg(short = 'o', long = "output", visible_short_alias = 'f')]
     output: Option<PathBuf>,
     /// Samples per pixel [scene default, else 64].
-    #[arg(short = 's', long = "spp")]
+    #[arg(short = 's', long = "spp", allow_negative_numbers = true)]
     spp: Option<u32>,
     /// Light samples per shading point; for a CS184 .dae scene, samples per
     /// area light as the course counts them [scene default, else 1].
-    #[arg(short = 'l', long = "light-samples")]
+    #[arg(short = 'l', long = "light-samples", allow_negative_numbers = true)]
     light_samples: Option<u32>,
     /// Maximum bounces: 0 = emission only, 1 = direct only [scene default, else 64].
-    #[arg(short = 'm', long = "max-depth")]
+    #[arg(short = 'm', long = "max-depth", allow_negative_numbers = true)]
     max_depth: Option<u32>,
     /// Resolution: width height [scene default].
-    #[arg(short = 'r', long = "resolution", num_args = 2, value_names = ["W", "H"])]
+    #[arg(short = 'r', long = "resolution", num_args = 2, value_names = ["W", "H"], allow_negative_numbers = true)]
     resolution: Option<Vec<u32>>,
     /// Render threads; 0 = all cores.
-    #[arg(short = 't', long = "threads", default_value_t = 0)]
+    #[arg(
+        short = 't',
+        long = "threads",
+        default_value_t = 0,
+        allow_negative_numbers = true
+    )]
     threads: usize,
     /// Random seed [scene default, else 0].
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     seed: Option<u64>,
     /// Sample generator: sobol (padded, Owen-scrambled Sobol points: the
     /// least error per unit of time), zsobol (the same along a Morton curve:
@@ -261,11 +276,11 @@ struct RenderArgs {
     plan: PlanMode,
     /// Fixed Russian-roulette continuation probability in [0, 1]
     /// [default: throughput-based].
-    #[arg(long = "rr", value_name = "P")]
+    #[arg(long = "rr", value_name = "P", allow_negative_numbers = true)]
     rr: Option<f32>,
     /// First bounce at which Russian roulette may end a path [default: the
     /// scene's, 3 unless it says].
-    #[arg(long = "rr-depth")]
+    #[arg(long = "rr-depth", allow_negative_numbers = true)]
     rr_depth: Option<u32>,
     /// Write a JSON report of the run.
     #[arg(long, value_name = "FILE")]
@@ -276,7 +291,7 @@ struct RenderArgs {
     #[command(flatten)]
     build: BuildArgs,
     /// Tile side in pixels.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = 16, allow_negative_numbers = true)]
     tile_size: u32,
     /// Fail (non-zero exit, no image) if any sample is NaN, infinite or negative.
     #[arg(long)]
@@ -287,22 +302,22 @@ struct RenderArgs {
     aov: Option<PathBuf>,
     /// Scale every sample down so that no component exceeds MAX (biased:
     /// the report states the energy removed) [default: no clamp].
-    #[arg(long, value_name = "MAX")]
+    #[arg(long, value_name = "MAX", allow_negative_numbers = true)]
     clamp: Option<f32>,
     /// Print nothing but errors.
     #[arg(short = 'q', long)]
     quiet: bool,
     /// Stop after the pass that reaches this many seconds of rendering
     /// (-s, if given, still caps the samples per pixel).
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     time_limit: Option<f64>,
     /// Stop when the estimated relative error of the image (95 %
     /// confidence) is at most E.
-    #[arg(long, value_name = "E")]
+    #[arg(long, value_name = "E", allow_negative_numbers = true)]
     target_error: Option<f64>,
     /// Adaptive sampling: every BATCH samples, stop sampling a pixel whose
     /// 95 % confidence interval is within TOL of its mean (-s is the most).
-    #[arg(short = 'a', num_args = 2, value_names = ["BATCH", "TOL"])]
+    #[arg(short = 'a', num_args = 2, value_names = ["BATCH", "TOL"], allow_negative_numbers = true)]
     adaptive: Option<Vec<f64>>,
     /// Write where the samples went (samples per pixel, false colour) as PNG.
     #[arg(long, value_name = "FILE")]
@@ -320,7 +335,7 @@ struct RenderArgs {
     shard: Option<Shard>,
     /// Render only the pixels [X0, X1) x [Y0, Y1) (origin top left); -o then
     /// writes an accumulation file (.exr) for `embertrace merge`.
-    #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"])]
+    #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"], allow_negative_numbers = true)]
     crop: Option<Vec<u32>>,
     /// Save the render's state (an accumulation file) to FILE as it goes, at
     /// the end, and on SIGINT or SIGTERM.
@@ -331,7 +346,8 @@ struct RenderArgs {
         long,
         value_name = "SECONDS",
         default_value_t = 60.0,
-        requires = "checkpoint"
+        requires = "checkpoint",
+        allow_negative_numbers = true
     )]
     checkpoint_every: f64,
     /// Continue the render saved in FILE to -s samples per pixel (it keeps
@@ -440,7 +456,10 @@ fn main() -> ExitCode {
     if argv.len() > 1 && !SUBCOMMANDS.contains(&argv[1].to_str().unwrap_or("")) {
         argv.insert(1, "render".into());
     }
-    let cli = Cli::parse_from(argv);
+    let cli = match Cli::try_parse_from(argv) {
+        Ok(cli) => cli,
+        Err(e) => return command_line_error(e),
+    };
     let result = match cli.command {
         Command::Render(args) => run_render(*args),
         Command::Bench(args) => run_bench(args),
@@ -467,6 +486,34 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// Help and the version go to stdout as clap prints them; any other
+/// command-line error is one line on stderr and exit status 1, like every
+/// other error.
+fn command_line_error(e: clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    if matches!(
+        e.kind(),
+        ErrorKind::DisplayHelp
+            | ErrorKind::DisplayVersion
+            | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+    ) {
+        e.exit();
+    }
+    let text = e.render().to_string();
+    let message = text.split("Usage:").next().unwrap_or_default();
+    // "error: ...:" then the arguments it lists, then a tip: one line
+    let mut line = String::new();
+    for l in message.lines().map(str::trim).filter(|l| !l.is_empty()) {
+        if !line.is_empty() {
+            line += if line.ends_with(':') { " " } else { "; " };
+        }
+        line += l;
+    }
+    let line = line.strip_prefix("error: ").unwrap_or(&line);
+    eprintln!("embertrace: error: {line} (see embertrace help)");
+    ExitCode::FAILURE
 }
 
 /// The sample map: each pixel's sample count on the false-colour ramp of

@@ -45,6 +45,42 @@ fn refused(out: &Output, what: &str) -> String {
     lines[0].to_string()
 }
 
+/// Settings out of range are refused alike: `-l 0` and `--tile-size 0`
+/// (once silently 1) like `-s 0`, and negative numbers reach the check that
+/// names them instead of clap's "unexpected argument".
+#[test]
+fn zero_and_negative_settings_are_one_line_errors() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    std::fs::write(dir.join("m.obj"), TRIANGLE_OBJ).unwrap();
+    let before = snapshot(dir);
+    for (flags, expect) in [
+        (vec!["-l", "0"], "-l 0"),
+        (vec!["--tile-size", "0"], "--tile-size 0"),
+        (vec!["--tile-size", "4294967295"], "--tile-size 4294967295"),
+        (vec!["--time-limit", "-1"], "--time-limit"),
+        (vec!["--target-error", "-0.5"], "--target-error"),
+        (vec!["--clamp", "-1"], "--clamp"),
+        (vec!["--rr", "-0.5"], "--rr -0.5"),
+        (vec!["-a", "4", "-0.1"], "-a"),
+        (
+            vec!["--checkpoint", "c.exr", "--checkpoint-every", "-5"],
+            "--checkpoint-every -5",
+        ),
+        (vec!["-s", "-1"], "-1"),
+        (vec!["--no-such-flag"], "--no-such-flag"),
+    ] {
+        let mut args = vec!["render", "m.obj", "-q", "-r", "4", "4", "-o", "x.png"];
+        args.extend(&flags);
+        let line = refused(&run(dir, &args), &format!("{flags:?}"));
+        assert!(
+            line.contains(expect),
+            "{flags:?}: `{line}` lacks `{expect}`"
+        );
+        assert_eq!(snapshot(dir), before, "{flags:?}: files changed");
+    }
+}
+
 /// One settings resolver: `study`, `bench --effects`, `bench --efficiency`
 /// and `parity` refuse what `render` refuses (study turned `-s 0` into 1 and
 /// checked neither the depth nor the pixel limit).
