@@ -15,6 +15,10 @@
 //! - spheres, point, directional and environment lights, camera and lens,
 //!   film and render defaults as TOML keys.
 //!
+//! Nothing is written if any of these files would overwrite one the scene
+//! was read from (the scene file, a texture, the environment map): a
+//! conversion onto its own input is refused before it begins.
+//!
 //! The converted scene renders to the same image bits as the original
 //! (tested on the bundled scenes); the one exception is smooth shading,
 //! whose vertex normals are normalised again on loading, which may move them
@@ -202,6 +206,43 @@ impl Writer<'_> {
     }
 }
 
+/// The files [`convert`] writes for `scene` at `out` (in `dir`, named after
+/// `stem`), in the order written: a mesh per run of triangles with one
+/// material, each distinct texture, the environment map, the TOML.
+fn planned_files(scene: &Scene, out: &Path, dir: &Path, stem: &str) -> Vec<PathBuf> {
+    let mut files = Vec::new();
+    let mut textures: Vec<Arc<ImageTexture>> = Vec::new();
+    let mut texture = |m: &Material, files: &mut Vec<PathBuf>| {
+        if let Some(t) = &m.texture {
+            if !textures.iter().any(|u| Arc::ptr_eq(u, t)) {
+                files.push(dir.join(format!("{stem}-texture-{}.exr", textures.len())));
+                textures.push(t.clone());
+            }
+        }
+    };
+    let n = scene.triangle_count();
+    let (mut start, mut k) = (0, 0);
+    while start < n {
+        let mat = scene.tri_material[start];
+        let mut end = start + 1;
+        while end < n && scene.tri_material[end] == mat {
+            end += 1;
+        }
+        files.push(dir.join(format!("{stem}-mesh-{k}.obj")));
+        texture(&scene.materials[mat as usize], &mut files);
+        start = end;
+        k += 1;
+    }
+    for &m in &scene.sphere_material {
+        texture(&scene.materials[m as usize], &mut files);
+    }
+    if scene.environment_map.is_some() {
+        files.push(dir.join(format!("{stem}-environment.exr")));
+    }
+    files.push(out.to_path_buf());
+    files
+}
+
 /// Convert `scene` to a TOML scene at `out` (which must end in `.toml`),
 /// writing its meshes and images beside it.
 pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
@@ -226,6 +267,15 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "scene".to_string());
+    let inputs = crate::outputs::Inputs::of_scene(scene);
+    for f in planned_files(scene, out, dir, &stem) {
+        let label = if f == out {
+            f.display().to_string()
+        } else {
+            format!("{} (written beside {})", f.display(), out.display())
+        };
+        inputs.check_output(&label, &f)?;
+    }
     let mut w = Writer {
         dir,
         stem,
@@ -339,4 +389,21 @@ fn distribution(d: Distribution) -> String {
         Distribution::Beckmann => "beckmann",
     };
     format!("distribution = \"{name}\"")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_files_checked_before_writing_are_the_files_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        for name in ["materials.toml", "cornell-spheres.toml"] {
+            let scene = Scene::load(&scenes.join(name)).unwrap();
+            let out = dir.path().join(name);
+            let planned = planned_files(&scene, &out, dir.path(), name.trim_end_matches(".toml"));
+            assert_eq!(convert(&scene, &out).unwrap().files, planned, "{name}");
+        }
+    }
 }

@@ -9,6 +9,7 @@ use embertrace::error::{Error, Result};
 use embertrace::farm::{self, Shard};
 use embertrace::film::{self, OutputOptions};
 use embertrace::integrator::{DirectStrategy, IntegratorSettings, PathTracer, Roulette};
+use embertrace::outputs::{self, Inputs};
 use embertrace::parity::{self, ParitySettings};
 use embertrace::plan::{Plan, PlanMode};
 use embertrace::progressive::{Adaptive, Budget, CONFIDENCE, PassRecord, render_progressive};
@@ -629,6 +630,17 @@ fn run_study(args: StudyArgs) -> Result<()> {
 
 fn run_diff(args: DiffArgs) -> Result<()> {
     use embertrace::diff::{Image, compare, write_error_image};
+    let written: Vec<outputs::Output<'_>> = [
+        ("--json", args.json.as_deref()),
+        ("--error-image", args.error_image.as_deref()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, path)| Some((flag, path?)))
+    .collect();
+    let mut inputs = Inputs::new();
+    inputs.add(&args.image, "the image to measure");
+    inputs.add(&args.reference, "the reference image");
+    outputs::check(&written, &inputs)?;
     if let Some(j) = &args.json {
         embertrace::report::check_report_path(j)?;
     }
@@ -685,6 +697,9 @@ fn run_bench(args: BenchArgs) -> Result<()> {
         ));
     }
     let scene = Scene::load(&args.scene)?;
+    if let Some(j) = &args.json {
+        outputs::check(&[("--json", j)], &Inputs::of_scene(&scene))?;
+    }
     // the --effects and --efficiency renders' settings
     let flags = Flags {
         spp: Some(args.spp),
@@ -762,6 +777,9 @@ fn run_parity(args: ParityArgs) -> Result<()> {
         embertrace::report::check_report_path(j)?;
     }
     let scene = Scene::load(&args.scene)?;
+    if let Some(j) = &args.json {
+        outputs::check(&[("--json", j)], &Inputs::of_scene(&scene))?;
+    }
     // the image rendered through each backend (--image 0 skips it)
     let flags = Flags {
         spp: Some(args.image_spp),
@@ -810,6 +828,25 @@ fn run_render(args: RenderArgs) -> Result<()> {
         let stem = args.scene.file_stem().unwrap_or_default().to_string_lossy();
         PathBuf::from(format!("{stem}.png"))
     });
+    // every file the render writes; a resumed render saves to its --resume
+    // file unless --checkpoint names another
+    let written: Vec<outputs::Output<'_>> = [
+        ("-o", Some(&output)),
+        ("--report", args.report.as_ref()),
+        ("--aov", args.aov.as_ref()),
+        ("--sample-map", args.sample_map.as_ref()),
+        ("--convergence", args.convergence.as_ref()),
+        ("--checkpoint", args.checkpoint.as_ref()),
+        (
+            "--resume",
+            args.resume.as_ref().filter(|_| args.checkpoint.is_none()),
+        ),
+        ("--variance", args.variance.as_ref()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, path)| Some((flag, path?.as_path())))
+    .collect();
+    outputs::check_distinct(&written)?;
     film::check_output_path(&output)?;
     if let Some(r) = &args.report {
         embertrace::report::check_report_path(r)?;
@@ -890,12 +927,6 @@ fn run_render(args: RenderArgs) -> Result<()> {
         }
         if let Some(c) = &args.checkpoint {
             check_exr(c, "--checkpoint: a checkpoint is an accumulation file")?;
-            if *c == output {
-                return Err(Error::Settings(format!(
-                    "--checkpoint {} is also -o: give them different files",
-                    c.display()
-                )));
-            }
         }
     }
     if let Some(v) = &args.variance {
@@ -905,6 +936,16 @@ fn run_render(args: RenderArgs) -> Result<()> {
     let t0 = Instant::now();
     let scene = Scene::load(&args.scene)?;
     let load_seconds = t0.elapsed().as_secs_f64();
+    let mut inputs = Inputs::of_scene(&scene);
+    if let Some(r) = &args.reference {
+        inputs.add(r, "the --reference image");
+    }
+    if let (Some(r), Some(c)) = (&args.resume, &args.checkpoint) {
+        if !outputs::same_file(r, c) {
+            inputs.add(r, "the render --resume continues");
+        }
+    }
+    outputs::check(&written, &inputs)?;
 
     // with a time or error budget and no -s, passes go on to BUDGET_MAX_SPP
     let budget_spp =
@@ -1289,6 +1330,19 @@ fn render_farm(
 }
 
 fn run_merge(args: MergeArgs) -> Result<()> {
+    let written: Vec<outputs::Output<'_>> = [
+        ("-o", Some(args.output.as_path())),
+        ("--variance", args.variance.as_deref()),
+        ("--report", args.report.as_deref()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, path)| Some((flag, path?)))
+    .collect();
+    let mut inputs = Inputs::new();
+    for part in &args.parts {
+        inputs.add(part, "a part to merge");
+    }
+    outputs::check(&written, &inputs)?;
     if args.accumulation {
         check_exr(&args.output, "--accumulation")?;
     } else {

@@ -18,7 +18,7 @@
 
 use crate::error::{Error, Result};
 use crate::math::{Vec2, Vec3};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The exact sRGB electro-optical transfer function: encoded value in
 /// `[0, 1]` to linear.
@@ -31,11 +31,20 @@ pub fn srgb_to_linear(c: f64) -> f64 {
 }
 
 /// A linear-RGB image, row 0 at the top.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone)]
 pub struct ImageTexture {
     width: u32,
     height: u32,
     texels: Vec<Vec3>,
+    /// The file it was read from, if any.
+    source: Option<PathBuf>,
+}
+
+/// Two textures are equal when their texels are, wherever they were read.
+impl PartialEq for ImageTexture {
+    fn eq(&self, other: &Self) -> bool {
+        (self.width, self.height) == (other.width, other.height) && self.texels == other.texels
+    }
 }
 
 impl ImageTexture {
@@ -56,9 +65,13 @@ impl ImageTexture {
                 ));
             }
         };
-        Self::from_linear_rgb(width, height, rgb).map_err(|e| match e {
+        let texture = Self::from_linear_rgb(width, height, rgb).map_err(|e| match e {
             Error::Settings(message) => Error::input(path, None, message),
             other => other,
+        })?;
+        Ok(ImageTexture {
+            source: Some(path.to_path_buf()),
+            ..texture
         })
     }
 
@@ -94,7 +107,13 @@ impl ImageTexture {
             width,
             height,
             texels,
+            source: None,
         })
+    }
+
+    /// The file the texture was read from (`None` for one made in code).
+    pub fn source(&self) -> Option<&Path> {
+        self.source.as_deref()
     }
 
     /// Width in texels.
@@ -244,6 +263,20 @@ mod tests {
         let t = ImageTexture::load(&path16).unwrap();
         let v = srgb_to_linear(30000.0 / 65535.0) as f32;
         assert_eq!(t.texel(0, 0), Vec3::splat(v));
+    }
+
+    #[test]
+    fn a_loaded_texture_keeps_its_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.png");
+        image::RgbImage::from_raw(1, 1, vec![1, 2, 3])
+            .unwrap()
+            .save(&path)
+            .unwrap();
+        let t = ImageTexture::load(&path).unwrap();
+        assert_eq!(t.source(), Some(path.as_path()));
+        let same = ImageTexture::from_linear_rgb(1, 1, t.texels()[0].to_array().to_vec());
+        assert_eq!(same.unwrap(), t, "equal texels are equal textures");
     }
 
     #[test]

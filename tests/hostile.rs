@@ -8,6 +8,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+const SCENES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes");
+
 const TRIANGLE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 
 fn run(dir: &Path, args: &[&str]) -> Output {
@@ -43,6 +45,216 @@ fn refused(out: &Output, what: &str) -> String {
     let lines: Vec<&str> = err.lines().collect();
     assert_eq!(lines.len(), 1, "{what}: expected one line, got {err}");
     lines[0].to_string()
+}
+
+/// `s.toml`: a floor mesh (`floor.obj`) with a texture (`checker.png`)
+/// under an environment map (`sky.exr`).
+fn textured_scene(dir: &Path) {
+    for f in ["checker.png", "sky.exr", "floor.obj"] {
+        std::fs::copy(Path::new(SCENES).join(f), dir.join(f)).unwrap();
+    }
+    std::fs::write(
+        dir.join("s.toml"),
+        "[camera]\norigin = [0.0, 1.6, 6.5]\ntarget = [0.0, 0.6, 0.0]\n\n\
+         [film]\nresolution = [8, 4]\n\n[render]\nspp = 1\n\n\
+         [[light]]\ntype = \"environment\"\nfile = \"sky.exr\"\nradiance = 1.0\n\n\
+         [[mesh]]\nfile = \"floor.obj\"\n\
+         material = { type = \"diffuse\", diffuse = 0.8, texture = \"checker.png\" }\n",
+    )
+    .unwrap();
+}
+
+/// `-o` and every other output flag onto a file the scene read (its
+/// texture, environment map or the scene file, also through `..`, a
+/// symbolic link or a hard link) is refused, naming both; nothing is
+/// written.
+#[test]
+fn outputs_onto_the_scenes_inputs_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    textured_scene(dir);
+    std::fs::create_dir(dir.join("sub")).unwrap();
+    std::fs::copy(dir.join("sky.exr"), dir.join("ref.exr")).unwrap();
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink("checker.png", dir.join("link.png")).unwrap();
+        std::fs::hard_link(dir.join("checker.png"), dir.join("hard.png")).unwrap();
+    }
+    let before = snapshot(dir);
+    let mut cases: Vec<(Vec<&str>, Vec<&str>)> = vec![
+        (vec!["-o", "checker.png"], vec!["-o checker.png", "texture"]),
+        (
+            vec!["-o", "sub/../checker.png"],
+            vec!["checker.png", "texture"],
+        ),
+        (vec!["-o", "sky.exr"], vec!["-o sky.exr", "environment"]),
+        (
+            vec!["-o", "x.png", "--report", "s.toml"],
+            vec!["--report s.toml", "scene"],
+        ),
+        (
+            vec!["-o", "x.png", "--aov", "checker.png"],
+            vec!["--aov checker.png", "texture"],
+        ),
+        (
+            vec!["-o", "x.png", "--variance", "sky.exr"],
+            vec!["--variance sky.exr", "environment"],
+        ),
+        (
+            vec!["-o", "x.png", "--checkpoint", "sky.exr"],
+            vec!["--checkpoint sky.exr", "environment"],
+        ),
+        (
+            vec![
+                "-o",
+                "x.png",
+                "-a",
+                "2",
+                "0.5",
+                "--sample-map",
+                "checker.png",
+            ],
+            vec!["--sample-map checker.png", "texture"],
+        ),
+        (
+            vec![
+                "-o",
+                "x.png",
+                "--reference",
+                "sky.exr",
+                "--convergence",
+                "s.toml",
+            ],
+            vec!["--convergence s.toml", "scene"],
+        ),
+        (
+            vec![
+                "-o",
+                "ref.exr",
+                "--reference",
+                "ref.exr",
+                "--convergence",
+                "c.csv",
+            ],
+            vec!["-o ref.exr", "--reference"],
+        ),
+    ];
+    if cfg!(unix) {
+        cases.push((vec!["-o", "link.png"], vec!["-o link.png", "checker.png"]));
+        cases.push((vec!["-o", "hard.png"], vec!["-o hard.png", "checker.png"]));
+    }
+    for (flags, expect) in cases {
+        let mut args = vec!["render", "s.toml", "-q"];
+        args.extend(&flags);
+        let line = refused(&run(dir, &args), &format!("{flags:?}"));
+        assert!(line.contains("overwrite"), "{flags:?}: {line}");
+        for e in expect {
+            assert!(line.contains(e), "{flags:?}: `{line}` lacks `{e}`");
+        }
+        assert_eq!(snapshot(dir), before, "{flags:?}: files changed");
+    }
+}
+
+/// Two outputs naming one file (`-o X --report X` left only the report)
+/// are refused before anything is read or rendered.
+#[test]
+fn two_outputs_onto_one_file_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    textured_scene(dir);
+    let before = snapshot(dir);
+    for (flags, expect) in [
+        (
+            vec!["-o", "x.png", "--report", "x.png"],
+            ["-o x.png", "--report x.png"],
+        ),
+        (
+            vec!["-o", "x.exr", "--variance", "./x.exr"],
+            ["-o x.exr", "--variance ./x.exr"],
+        ),
+        (
+            vec!["-o", "x.png", "--aov", "x.png"],
+            ["-o x.png", "--aov x.png"],
+        ),
+        (
+            vec![
+                "-o",
+                "x.png",
+                "--report",
+                "r.json",
+                "--reference",
+                "sky.exr",
+                "--convergence",
+                "r.json",
+            ],
+            ["--report r.json", "--convergence r.json"],
+        ),
+        (
+            vec![
+                "-o",
+                "x.png",
+                "--checkpoint",
+                "c.exr",
+                "--variance",
+                "c.exr",
+            ],
+            ["--checkpoint c.exr", "--variance c.exr"],
+        ),
+    ] {
+        let mut args = vec!["render", "s.toml", "-q"];
+        args.extend(&flags);
+        let line = refused(&run(dir, &args), &format!("{flags:?}"));
+        assert!(line.contains("same file"), "{flags:?}: {line}");
+        for e in expect {
+            assert!(line.contains(e), "{flags:?}: `{line}` lacks `{e}`");
+        }
+        assert_eq!(snapshot(dir), before, "{flags:?}: files changed");
+    }
+}
+
+/// `convert` refuses to write its TOML, or a mesh or image beside it, over
+/// a file the scene read.
+#[test]
+fn convert_never_overwrites_what_the_scene_read() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    textured_scene(dir);
+    // a scene whose environment map and texture carry the names a
+    // conversion to out.toml writes
+    std::fs::copy(dir.join("sky.exr"), dir.join("out-environment.exr")).unwrap();
+    std::fs::copy(dir.join("sky.exr"), dir.join("out-texture-0.exr")).unwrap();
+    let s = std::fs::read_to_string(dir.join("s.toml")).unwrap();
+    std::fs::write(
+        dir.join("env.toml"),
+        s.replace("\"sky.exr\"", "\"out-environment.exr\""),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("tex.toml"),
+        s.replace("\"checker.png\"", "\"out-texture-0.exr\""),
+    )
+    .unwrap();
+    let before = snapshot(dir);
+    for (args, expect) in [
+        (["convert", "s.toml", "s.toml"], "s.toml"),
+        (["convert", "s.toml", "./s.toml"], "s.toml"),
+        (["convert", "env.toml", "out.toml"], "out-environment.exr"),
+        (["convert", "tex.toml", "out.toml"], "out-texture-0.exr"),
+    ] {
+        let line = refused(&run(dir, &args), &format!("{args:?}"));
+        assert!(
+            line.contains("overwrite") && line.contains(expect),
+            "{args:?}: {line}"
+        );
+        assert_eq!(snapshot(dir), before, "{args:?}: files changed");
+    }
+    // and a conversion beside the inputs still works
+    let out = run(dir, &["convert", "s.toml", "c.toml"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 /// Settings out of range are refused alike: `-l 0` and `--tile-size 0`
