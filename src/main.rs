@@ -5,6 +5,7 @@ use embertrace::accel::bvh::BvhQuality;
 use embertrace::accel::{self, AccelOptions, Backend};
 use embertrace::bench::{self, BenchSettings};
 use embertrace::diff::{Image, compare};
+use embertrace::error::clip;
 use embertrace::error::{Error, Result};
 use embertrace::farm::{self, Shard};
 use embertrace::film::{self, OutputOptions};
@@ -513,7 +514,10 @@ fn command_line_error(e: clap::Error) -> ExitCode {
         line += l;
     }
     let line = line.strip_prefix("error: ").unwrap_or(&line);
-    eprintln!("embertrace: error: {line} (see embertrace help)");
+    eprintln!(
+        "embertrace: error: {} (see embertrace help)",
+        embertrace::error::clip(line)
+    );
     ExitCode::FAILURE
 }
 
@@ -972,10 +976,10 @@ fn run_render(args: RenderArgs) -> Result<()> {
     );
     let [w, h] = resolution;
     for note in &scene.notes {
-        say(&format!("note: {note}"));
+        say(&format!("note: {}", clip(note)));
     }
     for warning in &scene.warnings {
-        say(&format!("warning: {warning}"));
+        say(&format!("warning: {}", clip(warning)));
     }
     let backend = args.accel.unwrap_or_else(Backend::default_backend);
 

@@ -415,6 +415,41 @@ fn every_command_refuses_what_render_refuses() {
     }
 }
 
+/// A 10 MB token in a file is quoted by its first characters and its size,
+/// not whole.
+#[test]
+fn long_tokens_are_quoted_short() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let big = "k".repeat(10_000_000);
+    let files = [
+        ("key.toml", format!("[camera]\n{big} = 1\n"), "key.toml:2"),
+        (
+            "value.toml",
+            format!("[[light]]\ntype = \"{big}\"\n"),
+            "value.toml:1",
+        ),
+        (
+            "token.obj",
+            format!("{TRIANGLE_OBJ}f 1 2 {big}\n"),
+            "token.obj:5",
+        ),
+    ];
+    for (name, text, at) in &files {
+        std::fs::write(dir.join(name), text).unwrap();
+        let line = refused(
+            &run(dir, &["render", name, "-q", "-r", "4", "4", "-o", "x.png"]),
+            name,
+        );
+        assert!(line.len() < 400, "{name}: {} bytes of error", line.len());
+        assert!(line.contains(at), "{name}: {line}");
+        assert!(
+            line.contains("kkkkkkkk") && line.contains(" bytes)"),
+            "{name}: {line}"
+        );
+    }
+}
+
 /// A point light whose power `4 pi I` overflows `f32` (I = 1e38 W/sr) is
 /// still chosen in proportion to its power: it lit nothing before, its
 /// selection weight having become infinite, then zero.
