@@ -50,6 +50,13 @@ impl PartialEq for ImageTexture {
 impl ImageTexture {
     /// Load a texture from a `.png` (sRGB) or `.exr` (linear) file.
     pub fn load(path: &Path) -> Result<Self> {
+        if path.is_dir() {
+            return Err(Error::input(
+                path,
+                None,
+                "is a directory, expected a .png (sRGB) or .exr (linear) image",
+            ));
+        }
         let ext = path
             .extension()
             .and_then(|e| e.to_str())
@@ -277,6 +284,16 @@ mod tests {
         assert_eq!(t.source(), Some(path.as_path()));
         let same = ImageTexture::from_linear_rgb(1, 1, t.texels()[0].to_array().to_vec());
         assert_eq!(same.unwrap(), t, "equal texels are equal textures");
+    }
+
+    /// It said "Is a directory (os error 21)" after trying to decode it.
+    #[test]
+    fn a_directory_is_not_an_image() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path().join("d.png");
+        std::fs::create_dir(&d).unwrap();
+        let e = ImageTexture::load(&d).unwrap_err().to_string();
+        assert!(e.contains("d.png: is a directory, expected a .png"), "{e}");
     }
 
     #[test]
