@@ -507,7 +507,8 @@ fn command_line_error(e: clap::Error) -> ExitCode {
     let message = text.split("Usage:").next().unwrap_or_default();
     // "error: ...:" then the arguments it lists, then a tip: one line
     let mut line = String::new();
-    for l in message.lines().map(str::trim).filter(|l| !l.is_empty()) {
+    let lines = message.lines().map(str::trim);
+    for l in lines.filter(|l| !l.is_empty() && !l.starts_with("For more information")) {
         if !line.is_empty() {
             line += if line.ends_with(':') { " " } else { "; " };
         }

@@ -279,7 +279,7 @@ fn zero_and_negative_settings_are_one_line_errors() {
             vec!["--checkpoint", "c.exr", "--checkpoint-every", "-5"],
             "--checkpoint-every -5",
         ),
-        (vec!["-s", "-1"], "-1"),
+        (vec!["-s", "-1"], "invalid value '-1' for '--spp <SPP>'"),
         (vec!["--no-such-flag"], "--no-such-flag"),
     ] {
         let mut args = vec!["render", "m.obj", "-q", "-r", "4", "4", "-o", "x.png"];
@@ -288,6 +288,10 @@ fn zero_and_negative_settings_are_one_line_errors() {
         assert!(
             line.contains(expect),
             "{flags:?}: `{line}` lacks `{expect}`"
+        );
+        assert!(
+            !line.contains("--help'"),
+            "{flags:?}: two pointers to help: {line}"
         );
         assert_eq!(snapshot(dir), before, "{flags:?}: files changed");
     }
