@@ -22,14 +22,23 @@
 //! loader unless the variable says otherwise). A failing input is written to
 //! `target/tmp/fuzz-failure-*` for reproduction.
 //!
-//! This seeded mutator runs on stable Rust and gives the same inputs every
-//! run. For coverage-guided campaigns, `fuzz/` holds cargo-fuzz targets for
-//! the same loaders (`cargo +nightly fuzz run toml_scene`).
+//! **The run's seed.** Input `i` of a loader is a function of the run's seed
+//! (`EMBERTRACE_FUZZ_SEED`, a `u64`, decimal or `0x` hex), the loader's name
+//! and `i` alone, so a run replays exactly from its seed. Unset, the seed is
+//! fresh (from the process's random hash keys), so that every run tries new
+//! inputs; each loader prints the seed first, as a command that replays it,
+//! and a failure repeats it. `scripts/fuzz` (the CI step) chooses a fresh
+//! seed itself and prints it before building. Each loader also prints a
+//! digest of its inputs: the same seed gives the same digest.
+//!
+//! This seeded mutator runs on stable Rust. For coverage-guided campaigns,
+//! `fuzz/` holds cargo-fuzz targets for the same loaders
+//! (`cargo +nightly fuzz run toml_scene`).
 
 use embertrace::sampler::Sampler;
 use embertrace::scene::Scene;
 use std::path::Path;
-use std::sync::mpsc;
+use std::sync::{OnceLock, mpsc};
 use std::time::{Duration, Instant};
 
 /// The CPU time (clock ticks of `/proc`, 1/100 s) one load may use before
@@ -266,6 +275,63 @@ fn mutate(input: &[u8], s: &mut Sampler) -> Vec<u8> {
     v
 }
 
+/// The run's seed: `EMBERTRACE_FUZZ_SEED`, or a fresh one, the same for
+/// every loader of this process.
+fn run_seed() -> u64 {
+    static SEED: OnceLock<u64> = OnceLock::new();
+    *SEED.get_or_init(|| match std::env::var("EMBERTRACE_FUZZ_SEED") {
+        Ok(v) => parse_seed(&v).unwrap_or_else(|| {
+            panic!("EMBERTRACE_FUZZ_SEED={v:?} is not a u64 (decimal or 0x hex)")
+        }),
+        Err(_) => {
+            use std::hash::{BuildHasher, Hasher};
+            // std's hash keys are drawn from the OS's random source
+            let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+            h.write_u128(
+                std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0, |d| d.as_nanos()),
+            );
+            h.finish()
+        }
+    })
+}
+
+fn parse_seed(v: &str) -> Option<u64> {
+    let v = v.trim().replace('_', "");
+    match v.strip_prefix("0x").or_else(|| v.strip_prefix("0X")) {
+        Some(hex) => u64::from_str_radix(hex, 16).ok(),
+        None => v.parse().ok(),
+    }
+}
+
+/// Input `i` of loader `name` from seed files `seeds` in the run of `seed`.
+fn input(name: &str, seeds: &[&[u8]], seed: u64, i: u64) -> Vec<u8> {
+    let mut s = Sampler::new(seed, stream(name), i);
+    mutate(seeds[i as usize % seeds.len()], &mut s)
+}
+
+/// The command that replays this run (of the test running now).
+fn replay(seed: u64, iterations: u64) -> String {
+    let test = std::thread::current()
+        .name()
+        .filter(|t| *t != "main")
+        .map(|t| format!(" {t} --exact"))
+        .unwrap_or_default();
+    // the features this binary was built with: a failure may be Embree's
+    let features = if cfg!(feature = "embree") {
+        ""
+    } else if cfg!(feature = "embree4") {
+        " --no-default-features --features embree4"
+    } else {
+        " --no-default-features"
+    };
+    format!(
+        "EMBERTRACE_FUZZ_SEED={seed} EMBERTRACE_FUZZ_ITERS={iterations} \
+         cargo test{features} --test fuzz_loaders --{test} --nocapture"
+    )
+}
+
 fn iterations() -> u64 {
     std::env::var("EMBERTRACE_FUZZ_ITERS")
         .ok()
@@ -351,7 +417,7 @@ fn render_tiny(scene: Scene) {
     render(&tracer, &scene.make_camera(2, 2), &rs, &|| {}).expect("a loaded scene renders");
 }
 
-/// A stream number per fuzz run, so that no two runs mutate alike.
+/// A stream number per loader, so that no two loaders mutate alike.
 fn stream(name: &str) -> u64 {
     name.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
         (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
@@ -363,13 +429,16 @@ fn stream(name: &str) -> u64 {
 fn fuzz(name: &str, files: &[(&str, &str)], target: &str, seeds: &[&[u8]], entry: &str) {
     let dir = tempfile::tempdir().unwrap();
     let names: Vec<&str> = files.iter().map(|f| f.0).collect();
-    let n = iterations();
+    let (n, seed) = (iterations(), run_seed());
+    eprintln!("fuzz {name}: seed {seed}; replay: {}", replay(seed, n));
     let (mut ok, mut errors) = (0u64, 0u64);
+    let mut digest = stream("");
     let start = Instant::now();
     for i in 0..n {
-        let mut s = Sampler::new(0xf022, stream(name), i);
-        let seed_text = seeds[i as usize % seeds.len()];
-        let input = mutate(seed_text, &mut s);
+        let input = input(name, seeds, seed, i);
+        digest = input.iter().fold(digest, |h, &b| {
+            (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
+        });
         for (f, text) in files {
             let bytes = if *f == target {
                 &input[..]
@@ -383,7 +452,11 @@ fn fuzz(name: &str, files: &[(&str, &str)], target: &str, seeds: &[&[u8]], entry
             let out =
                 Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("fuzz-failure-{name}-{i}"));
             std::fs::write(&out, &input).unwrap();
-            panic!("{name} input {i} ({}): {why}", out.display());
+            panic!(
+                "{name} input {i} of the run of seed {seed} ({}): {why}; replay: {}",
+                out.display(),
+                replay(seed, i + 1)
+            );
         };
         match load_bounded(&path) {
             Outcome::Panicked => keep("the loader panicked"),
@@ -404,13 +477,36 @@ fn fuzz(name: &str, files: &[(&str, &str)], target: &str, seeds: &[&[u8]], entry
         }
     }
     eprintln!(
-        "fuzz {name}: {n} inputs in {:.2} s ({ok} loaded, {errors} clean errors)",
+        "fuzz {name}: {n} inputs (digest {digest:016x}) in {:.2} s ({ok} loaded, {errors} clean errors)",
         start.elapsed().as_secs_f64()
     );
     assert!(
         errors > 0,
         "{name}: no mutation was rejected: the mutator does nothing"
     );
+}
+
+/// A seed gives the same inputs every time it is used, whatever else ran
+/// before; another seed gives other inputs; the variable's spellings parse.
+#[test]
+fn a_seed_reproduces_its_inputs() {
+    let seeds = [TOML.as_bytes(), TOML_EDGES.as_bytes()];
+    let run =
+        |seed: u64| -> Vec<Vec<u8>> { (0..50).map(|i| input("toml", &seeds, seed, i)).collect() };
+    let a = run(0x5eed);
+    // interleave other work on the generator's state, then replay
+    let _ = run(1);
+    assert_eq!(run(0x5eed), a);
+    let b = run(0x5eee);
+    assert!(a.iter().zip(&b).filter(|(x, y)| x != y).count() > 40);
+    // input i does not depend on how many inputs the run has
+    assert_eq!(input("toml", &seeds, 0x5eed, 49), a[49]);
+    assert_eq!(parse_seed("0x5eed"), Some(0x5eed));
+    assert_eq!(parse_seed(" 24301 "), Some(24301));
+    assert_eq!(parse_seed("18_446_744_073_709_551_615"), Some(u64::MAX));
+    assert_eq!(parse_seed("seed"), None);
+    // the seed in use is printed, in a command that sets it
+    assert!(replay(7, 3).starts_with("EMBERTRACE_FUZZ_SEED=7 EMBERTRACE_FUZZ_ITERS=3 "));
 }
 
 const FILES: [(&str, &str); 3] = [("scene.toml", TOML), ("mesh.obj", OBJ), ("mesh.mtl", MTL)];
