@@ -357,22 +357,25 @@ fn case2_closed_mesh_from_inside_never_misses() {
         let o = Vec3::new(0.01, -0.02, 0.015);
         rays.push(Ray::new(o, (*p - o).normalize()));
     }
+    // Every backend, Embree included, must miss none. Embree's robust mode
+    // (`RTC_SCENE_FLAG_ROBUST`, on by default here) is meant to stop rays
+    // from slipping through shared edges, though its triangle test is not
+    // exactly watertight (embree/embree#387 reports robust-mode misses at
+    // edges); on this mesh it misses none (0 of 100,642 with Embree 3.13.5
+    // on an AVX2 AMD EPYC; without robust mode it misses 57, rays aimed at
+    // vertices among them).
+    // A ray that leaves a closed mesh is a light leak in a render, so a
+    // miss is a failure here, not a rate to log.
     for b in Backend::available() {
         let acc = soup.build(b);
-        let misses = rays.iter().filter(|r| acc.intersect(r).is_none()).count();
-        if b == Backend::Embree {
-            eprintln!(
-                "embree (robust): {misses} of {} rays from inside missed",
-                rays.len()
-            );
-        } else {
-            assert_eq!(
-                misses,
-                0,
-                "{b}: {misses} of {} rays escaped the closed mesh",
-                rays.len()
-            );
-        }
+        let missed: Vec<&Ray> = rays.iter().filter(|r| acc.intersect(r).is_none()).collect();
+        assert!(
+            missed.is_empty(),
+            "{b}: {} of {} rays escaped the closed mesh, e.g. {:?}",
+            missed.len(),
+            rays.len(),
+            &missed[..missed.len().min(3)]
+        );
     }
     // against the oracle: a share of the random rays and every vertex ray
     let mut check = rays[..20_000].to_vec();
