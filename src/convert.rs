@@ -49,6 +49,19 @@ fn rgb(v: Vec3) -> String {
     format!("[{}, {}, {}]", num(v.x), num(v.y), num(v.z))
 }
 
+/// A render-space point of `scene` as the world point it stands for: itself
+/// when the scene was not rebased, else plus [`Scene::world_origin`], in
+/// f64 and printed to read back to the same f64 (the sum is exact: the
+/// origin lies on a coarse power-of-two grid).
+fn world(scene: &Scene, p: Vec3) -> String {
+    let o = scene.world_origin;
+    if o == crate::math::DVec3::ZERO {
+        return rgb(p);
+    }
+    let w = p.as_dvec3() + o;
+    format!("[{:?}, {:?}, {:?}]", w.x, w.y, w.z)
+}
+
 /// Write `tex` as a linear EXR at `path`.
 fn write_texture(path: &Path, tex: &ImageTexture) -> Result<()> {
     let mut rgb = Vec::with_capacity(tex.width() as usize * tex.height() as usize);
@@ -288,8 +301,8 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
     );
     let c = &scene.camera;
     let _ = writeln!(t, "[camera]");
-    let _ = writeln!(t, "origin = {}", rgb(c.origin));
-    let _ = writeln!(t, "target = {}", rgb(c.target));
+    let _ = writeln!(t, "origin = {}", world(scene, c.origin));
+    let _ = writeln!(t, "target = {}", world(scene, c.target));
     let _ = writeln!(t, "up = {}", rgb(c.up));
     match scene.focal_pixels {
         Some(f) => {
@@ -329,6 +342,14 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
         let file = w.mesh(scene, start..end, k)?;
         let material = w.material(&scene.materials[mat as usize])?;
         let _ = write!(t, "\n[[mesh]]\nfile = \"{file}\"\nmaterial = {material}\n");
+        if scene.world_origin != crate::math::DVec3::ZERO {
+            // the OBJ holds render-space positions; this puts them back
+            let _ = writeln!(
+                t,
+                "transform = {{ translate = {} }}",
+                world(scene, Vec3::ZERO)
+            );
+        }
         start = end;
         k += 1;
     }
@@ -337,7 +358,7 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
         let _ = write!(
             t,
             "\n[[sphere]]\ncenter = {}\nradius = {}\nmaterial = {material}\n",
-            rgb(s.center),
+            world(scene, s.center),
             num(s.radius)
         );
     }
@@ -345,7 +366,7 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
         let _ = write!(
             t,
             "\n[[light]]\ntype = \"point\"\nposition = {}\nintensity = {}\n",
-            rgb(p.position),
+            world(scene, p.position),
             rgb(p.intensity)
         );
         if p.attenuation != crate::light::point::PHYSICAL {

@@ -151,6 +151,8 @@ impl std::fmt::Write for Fnv {
 pub fn scene_hash(scene: &Scene) -> u64 {
     let Scene {
         source: _,
+        // where the geometry came from changes no pixel
+        mesh_files: _,
         positions,
         indices,
         normals,
@@ -167,6 +169,8 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         point_lights,
         directional_lights,
         camera,
+        // where render space sits in the world changes no pixel
+        world_origin: _,
         lens,
         focal_pixels,
         resolution,

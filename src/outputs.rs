@@ -110,6 +110,9 @@ impl Inputs {
         for t in textures {
             inputs.add(t, format!("a texture {name} reads"));
         }
+        for f in &scene.mesh_files {
+            inputs.add(f, format!("a mesh file {name} reads"));
+        }
         if let Some(map) = scene
             .environment_map
             .as_ref()

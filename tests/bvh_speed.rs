@@ -52,7 +52,8 @@ fn bvh_speed_on_displaced_sphere() {
         "sphere",
         Material::default(),
     );
-    let soup = TriangleSoup::triangles(&mesh.positions, &mesh.indices);
+    let positions: Vec<_> = mesh.positions.iter().map(|p| p.as_vec3()).collect();
+    let soup = TriangleSoup::triangles(&positions, &mesh.indices);
     let mut s = Sampler::new(42, 0, 0);
     // from outside towards random points inside the sphere: "primary" rays
     let outside: Vec<Ray> = (0..n_rays)

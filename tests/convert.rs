@@ -42,7 +42,18 @@ fn round_trip(path: &Path) {
     let written = convert(&scene, &out).unwrap();
     assert_eq!(written.files.last(), Some(&out));
     let again = Scene::load(&out).unwrap();
+    assert_eq!(again.world_origin, scene.world_origin);
     assert_eq!(again.triangle_count(), scene.triangle_count());
+    let corners = |s: &Scene| {
+        (0..s.triangle_count() as u32)
+            .map(|t| s.triangle(t))
+            .collect::<Vec<_>>()
+    };
+    assert!(
+        corners(&again) == corners(&scene),
+        "{}: triangles moved",
+        path.display()
+    );
     assert_eq!(again.spheres, scene.spheres);
     assert_eq!(again.camera, scene.camera);
     // a pinhole's focus distance means nothing
@@ -78,6 +89,29 @@ fn bundled_scenes_round_trip_to_the_same_bits() {
                 .join(name),
         );
     }
+}
+
+/// A scene far from the origin is rebased when loaded; converted, it is
+/// written in world coordinates and reads back to the same render-space
+/// bits.
+#[test]
+fn a_rebased_scene_round_trips_to_the_same_bits() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.obj");
+    let path = dir.path().join("far.toml");
+    std::fs::write(
+        &path,
+        format!(
+            "[camera]\norigin = [10000.0, 10000.001, 10000.0039]\ntarget = [10000.0, 10000.001, 10000.0]\n\
+             [[mesh]]\nfile = \"{obj}\"\ntransform = {{ scale = 0.001, translate = [10000, 10000, 10000] }}\n\
+             [[sphere]]\ncenter = [10000.0, 10000.0005, 9999.9995]\nradius = 0.0002\n\
+             [[light]]\ntype = \"point\"\nposition = [10000.0, 10000.0015, 10000.0]\nintensity = 0.000001\n"
+        ),
+    )
+    .unwrap();
+    let scene = Scene::load(&path).unwrap();
+    assert_ne!(scene.world_origin, embertrace::math::DVec3::ZERO);
+    round_trip(&path);
 }
 
 #[test]

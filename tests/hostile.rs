@@ -456,7 +456,6 @@ fn long_tokens_are_quoted_short() {
 
 /// A texture path that is a directory says so (it said "not found").
 #[test]
-#[ignore = "the loaders in src/scene test `is_file` before ImageTexture::load and say `not found`"]
 fn a_texture_that_is_a_directory_says_so() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();

@@ -1,7 +1,10 @@
-//! Scale invariance (issue 4 item 3): the Cornell box scaled by 1e-3 to 1e4
-//! and translated by up to 1e5 (ten times its size, so the box stays
-//! representable in `f32`) renders the image of the unit box within noise,
-//! in every backend: no self-shadowing, no light leaks, no NaN.
+//! Scale invariance (issue 4 item 3) and large worlds (issue 21 item 1): the
+//! Cornell box scaled by 1e-4 to 1e4, and translated by ten times its size
+//! or by 1e6 on every axis (the camera moved with it), renders the image of
+//! the unit box within noise, in every backend: no self-shadowing, no light
+//! leaks, no NaN. At scale 1e-3 and offset 1e4 every coordinate was within a
+//! few f32 ulps of its neighbours before scenes were rebased to the camera
+//! in f64, and the box rendered black.
 //!
 //! Each render is compared with the unit box's by the image mean and the
 //! means of 4 x 4 blocks of pixels, per channel: a difference must stay
@@ -95,11 +98,13 @@ fn render_scene(s: &Scene, b: Backend) -> (Film, u64) {
 #[test]
 fn scaled_and_translated_boxes_render_the_same_image() {
     let mut cases = Vec::new();
-    for k in -3..=4 {
+    for k in -4..=4 {
         let s = 10f64.powi(k);
         cases.push((s, [0.0; 3]));
         cases.push((s, [10.0 * s, -10.0 * s, 10.0 * s]));
+        cases.push((s, [1e6, -1e6, 1e6]));
     }
+    cases.push((1e-3, [1e4, 1e4, 1e4]));
     for b in Backend::available() {
         let (base, bad) = render_scene(&scene(1.0, [0.0; 3]), b);
         assert_eq!(bad, 0);

@@ -45,14 +45,13 @@
 //! the file and line.
 
 use super::limits::{self, MAX_COORDINATE};
-use super::{LightCount, Material, MeshData, Scene, SceneBuilder};
-use crate::accel::Sphere;
+use super::{LightCount, Material, MeshData, Scene, SceneBuilder, WorldCamera};
 use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Mirror};
 use crate::error::{Error, Result, one_line};
 use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
 use crate::math::Vec3;
 use crate::texture::ImageTexture;
-use glam::{Affine3A, Mat3A, Mat4, Vec3A};
+use glam::{DAffine3, DMat3, DMat4, DVec3};
 use roxmltree::{Document, Node};
 use std::collections::HashMap;
 use std::path::Path;
@@ -70,11 +69,12 @@ struct Loader<'a, 'i> {
     warnings: Vec<String>,
     builder: SceneBuilder,
     /// The camera node's world transform, if any.
-    camera: Option<(Affine3A, Node<'a, 'i>)>,
+    camera: Option<(DAffine3, Node<'a, 'i>)>,
     /// Area lights, added after the bounds are taken.
     areas: Vec<Area>,
     ambient: Vec3,
-    point_lights: Vec<PointLight>,
+    /// Point lights added (to the builder).
+    point_lights: usize,
     directional_lights: Vec<DirectionalLight>,
 }
 
@@ -108,7 +108,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         camera: None,
         areas: Vec::new(),
         ambient: Vec3::ZERO,
-        point_lights: Vec::new(),
+        point_lights: 0,
         directional_lights: Vec::new(),
     };
     ld.scene()
@@ -166,7 +166,7 @@ impl<'a, 'i> Loader<'a, 'i> {
     }
 
     /// Every number of an element's text.
-    fn numbers(&self, n: Node, limit: usize) -> Result<Vec<f32>> {
+    fn numbers(&self, n: Node, limit: usize) -> Result<Vec<f64>> {
         let text = n.text().unwrap_or("");
         let mut out = Vec::new();
         for w in text.split_ascii_whitespace() {
@@ -176,7 +176,7 @@ impl<'a, 'i> Loader<'a, 'i> {
                     format!("<{}> has more than {limit} numbers", n.tag_name().name()),
                 ));
             }
-            match w.parse::<f32>() {
+            match w.parse::<f64>() {
                 Ok(x) if x.is_finite() => out.push(x),
                 _ => {
                     return Err(self.fail(
@@ -195,7 +195,7 @@ impl<'a, 'i> Loader<'a, 'i> {
 
     /// Exactly `k` numbers (a colour may carry a fourth, alpha, ignored
     /// when `k` is 3).
-    fn fixed<const K: usize>(&self, n: Node) -> Result<[f32; K]> {
+    fn fixed<const K: usize>(&self, n: Node) -> Result<[f64; K]> {
         let v = self.numbers(n, K + 1)?;
         if v.len() == K || (K == 3 && v.len() == 4) {
             let mut out = [0.0; K];
@@ -214,7 +214,7 @@ impl<'a, 'i> Loader<'a, 'i> {
     }
 
     fn colour(&self, n: Node) -> Result<Vec3> {
-        let c = Vec3::from(self.fixed::<3>(n)?);
+        let c = DVec3::from(self.fixed::<3>(n)?).as_vec3();
         if c.min_element() < 0.0 {
             return Err(self.fail(
                 n,
@@ -233,11 +233,11 @@ impl<'a, 'i> Loader<'a, 'i> {
     /// numbers per element.
     fn vec3_source(
         &self,
-        sources: &HashMap<&str, (Vec<f32>, usize)>,
+        sources: &HashMap<&str, (Vec<f64>, usize)>,
         id: &str,
         at: Node,
         what: &str,
-    ) -> Result<Vec<Vec3>> {
+    ) -> Result<Vec<DVec3>> {
         let (v, stride) = sources.get(id).ok_or_else(|| {
             self.fail(
                 at,
@@ -251,7 +251,7 @@ impl<'a, 'i> Loader<'a, 'i> {
             return Err(self.fail(at, format!("{what}s need three numbers each")));
         }
         Ok(v.chunks_exact(*stride)
-            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .map(|c| DVec3::new(c[0], c[1], c[2]))
             .collect())
     }
 
@@ -279,16 +279,16 @@ impl<'a, 'i> Loader<'a, 'i> {
             .element(root, "asset/up_axis")
             .ok_or_else(|| self.fail(root, "no <asset><up_axis>: the course's loader needs one"))?;
         let global = match up.text().map(str::trim) {
-            Some("Y_UP") => Mat3A::IDENTITY,
-            Some("Z_UP") => Mat3A::from_cols(
-                Vec3A::new(-1.0, 0.0, 0.0),
-                Vec3A::new(0.0, 0.0, 1.0),
-                Vec3A::new(0.0, 1.0, 0.0),
+            Some("Y_UP") => DMat3::IDENTITY,
+            Some("Z_UP") => DMat3::from_cols(
+                DVec3::new(-1.0, 0.0, 0.0),
+                DVec3::new(0.0, 0.0, 1.0),
+                DVec3::new(0.0, 1.0, 0.0),
             ),
-            Some("X_UP") => Mat3A::from_cols(
-                Vec3A::new(0.0, 1.0, 0.0),
-                Vec3A::new(1.0, 0.0, 0.0),
-                Vec3A::new(0.0, 0.0, -1.0),
+            Some("X_UP") => DMat3::from_cols(
+                DVec3::new(0.0, 1.0, 0.0),
+                DVec3::new(1.0, 0.0, 0.0),
+                DVec3::new(0.0, 0.0, -1.0),
             ),
             other => {
                 return Err(self.fail(
@@ -300,7 +300,7 @@ impl<'a, 'i> Loader<'a, 'i> {
                 ));
             }
         };
-        let global = Affine3A::from_mat3(global.into());
+        let global = DAffine3::from_mat3(global);
         let visual = self
             .element(root, "scene/instance_visual_scene")
             .ok_or_else(|| {
@@ -316,11 +316,11 @@ impl<'a, 'i> Loader<'a, 'i> {
     }
 
     /// A node and its children, under the world transform `parent`.
-    fn node(&mut self, n: Node<'a, 'i>, parent: Affine3A, depth: usize) -> Result<()> {
+    fn node(&mut self, n: Node<'a, 'i>, parent: DAffine3, depth: usize) -> Result<()> {
         if depth > 256 {
             return Err(self.fail(n, "nodes nested deeper than 256"));
         }
-        let mut local = Mat4::IDENTITY;
+        let mut local = DMat4::IDENTITY;
         for e in n.children().filter(|c| c.is_element()) {
             let m = match e.tag_name().name() {
                 "matrix" => {
@@ -337,18 +337,18 @@ impl<'a, 'i> Loader<'a, 'i> {
                     let mut m = [0.0; 16];
                     m[..v.len()].copy_from_slice(&v);
                     // row-major in the file; ends the list, as in the course
-                    local = Mat4::from_cols_array(&m).transpose();
+                    local = DMat4::from_cols_array(&m).transpose();
                     break;
                 }
-                "translate" => Mat4::from_translation(Vec3::from(self.fixed::<3>(e)?)),
-                "scale" => Mat4::from_scale(Vec3::from(self.fixed::<3>(e)?)),
+                "translate" => DMat4::from_translation(DVec3::from(self.fixed::<3>(e)?)),
+                "scale" => DMat4::from_scale(DVec3::from(self.fixed::<3>(e)?)),
                 "rotate" => {
                     let [x, y, z, deg] = self.fixed::<4>(e)?;
-                    let axis = Vec3::new(x, y, z);
+                    let axis = DVec3::new(x, y, z);
                     if !(axis.length() > 0.0) {
                         return Err(self.fail(e, "<rotate>: the axis is zero"));
                     }
-                    Mat4::from_axis_angle(axis.normalize(), deg.to_radians())
+                    DMat4::from_axis_angle(axis.normalize(), deg.to_radians())
                 }
                 "lookat" | "skew" => {
                     self.warn(
@@ -364,8 +364,8 @@ impl<'a, 'i> Loader<'a, 'i> {
             };
             local *= m;
         }
-        let affine = Affine3A::from_mat4(local);
-        if (local.row(3) - glam::Vec4::W).abs().max_element() > 1e-6 {
+        let affine = DAffine3::from_mat4(local);
+        if (local.row(3) - glam::DVec4::W).abs().max_element() > 1e-6 {
             // the course keeps the bottom row only to divide mesh vertices
             // by w; its cameras and lights ignore it
             self.warn(
@@ -405,9 +405,11 @@ impl<'a, 'i> Loader<'a, 'i> {
                 let line = self.line(geometry);
                 self.builder.add_mesh_matrix(data, world, Some(line))?;
             } else if let Some(radius) = self.sphere_radius(geometry)? {
-                let center = world.transform_point3(Vec3::ZERO);
-                let r = radius * world.transform_vector3(Vec3::X).length();
-                if !(r > 0.0 && r <= MAX_COORDINATE && center.abs().max_element() <= MAX_COORDINATE)
+                let center = world.transform_point3(DVec3::ZERO);
+                let r = (radius * world.transform_vector3(DVec3::X).length()) as f32;
+                if !(r > 0.0
+                    && r <= MAX_COORDINATE
+                    && center.abs().max_element() <= MAX_COORDINATE as f64)
                 {
                     return Err(self.fail(
                         geometry,
@@ -415,8 +417,7 @@ impl<'a, 'i> Loader<'a, 'i> {
                     ));
                 }
                 let line = self.line(geometry);
-                self.builder
-                    .add_sphere(Sphere { center, radius: r }, material, Some(line))?;
+                self.builder.add_sphere(center, r, material, Some(line))?;
             } else {
                 self.warn(
                     geometry,
@@ -434,7 +435,7 @@ impl<'a, 'i> Loader<'a, 'i> {
             .find(|t| t.attribute("profile") == Some("CGL"))
     }
 
-    fn sphere_radius(&self, geometry: Node<'a, 'i>) -> Result<Option<f32>> {
+    fn sphere_radius(&self, geometry: Node<'a, 'i>) -> Result<Option<f64>> {
         let Some(t) = self.cgl(geometry) else {
             return Ok(None);
         };
@@ -483,7 +484,7 @@ impl<'a, 'i> Loader<'a, 'i> {
                         reflectance: self.colour(self.need(b, "reflectance")?)?,
                     }),
                     "microfacet" => {
-                        let [alpha] = self.fixed::<1>(self.need(b, "alpha")?)?;
+                        let alpha = self.fixed::<1>(self.need(b, "alpha")?)?[0] as f32;
                         Bsdf::Conductor(Conductor {
                             eta: self.colour(self.need(b, "eta")?)?,
                             k: self.colour(self.need(b, "k")?)?,
@@ -491,7 +492,7 @@ impl<'a, 'i> Loader<'a, 'i> {
                         })
                     }
                     "glass" | "refraction" => {
-                        let [ior] = self.fixed::<1>(self.need(b, "ior")?)?;
+                        let ior = self.fixed::<1>(self.need(b, "ior")?)?[0] as f32;
                         let reflectance = if kind == "glass" {
                             self.colour(self.need(b, "reflectance")?)?
                         } else {
@@ -551,7 +552,7 @@ impl<'a, 'i> Loader<'a, 'i> {
         material: Material,
     ) -> Result<MeshData> {
         // float sources
-        let mut sources: HashMap<&str, (Vec<f32>, usize)> = HashMap::new();
+        let mut sources: HashMap<&str, (Vec<f64>, usize)> = HashMap::new();
         for s in children(mesh, "source") {
             let (Some(id), Some(fa)) = (s.attribute("id"), child(s, "float_array")) else {
                 continue;
@@ -645,7 +646,7 @@ impl<'a, 'i> Loader<'a, 'i> {
                     }
                     Some("NORMAL") => {
                         let n = self.vec3_source(&sources, source, input, "normal")?;
-                        normal = Some((offset, n));
+                        normal = Some((offset, n.iter().map(|n| n.as_vec3()).collect::<Vec<_>>()));
                     }
                     _ => {}
                 }
@@ -739,7 +740,7 @@ impl<'a, 'i> Loader<'a, 'i> {
         Ok(data)
     }
 
-    fn light(&mut self, light: Node<'a, 'i>, world: Affine3A) -> Result<()> {
+    fn light(&mut self, light: Node<'a, 'i>, world: DAffine3) -> Result<()> {
         let technique = self
             .cgl(light)
             .or_else(|| self.technique_common(light))
@@ -749,17 +750,17 @@ impl<'a, 'i> Loader<'a, 'i> {
         };
         let kind = e.tag_name().name();
         let colour = |ld: &Self| ld.colour(ld.need(e, "color")?);
-        let origin = world.transform_point3(Vec3::ZERO);
+        let origin = world.transform_point3(DVec3::ZERO);
         // the course transforms directions as points (w = 1) and subtracts
         // the origin where it does; kept as it does
-        let point = |p: Vec3| world.transform_point3(p);
+        let point = |p: DVec3| world.transform_point3(p);
         match kind {
             "area" => {
                 let radiance = colour(self)?;
-                let dir = (point(-Vec3::Z) - origin).normalize_or_zero();
-                let dim_x = point(-Vec3::X) - origin;
-                let dim_y = point(Vec3::Y) - origin;
-                if dir == Vec3::ZERO || dim_x.cross(dim_y).length_squared() == 0.0 {
+                let dir = (point(-DVec3::Z) - origin).normalize_or_zero();
+                let dim_x = point(-DVec3::X) - origin;
+                let dim_y = point(DVec3::Y) - origin;
+                if dir == DVec3::ZERO || dim_x.cross(dim_y).length_squared() == 0.0 {
                     return Err(self.fail(e, "the area light's node transform flattens it"));
                 }
                 let line = self.line(e);
@@ -773,15 +774,16 @@ impl<'a, 'i> Loader<'a, 'i> {
                 });
             }
             "point" => {
-                let l = PointLight::new(origin, colour(self)?)
+                let l = PointLight::new(Vec3::ZERO, colour(self)?)
                     .with_attenuation([1.0, 0.0, 0.0])
                     .expect("constant falloff is valid");
-                self.point_lights.push(l);
+                self.point_lights += 1;
+                self.builder.add_point_light(origin, l);
             }
             "directional" => {
                 // the course's direction towards the light is minus the
                 // transformed point (0, 0, -1)
-                let towards_light = -point(-Vec3::Z);
+                let towards_light = -point(-DVec3::Z).as_vec3();
                 let l = DirectionalLight::new(-towards_light, colour(self)?)
                     .ok_or_else(|| self.fail(e, "the directional light's direction is zero"))?;
                 self.directional_lights.push(l);
@@ -808,7 +810,7 @@ impl<'a, 'i> Loader<'a, 'i> {
             })?;
         let read = |name: &str| -> Result<Option<f64>> {
             match child(p, name) {
-                Some(e) => Ok(Some(self.fixed::<1>(e)?[0] as f64)),
+                Some(e) => Ok(Some(self.fixed::<1>(e)?[0])),
                 None => Ok(None),
             }
         };
@@ -842,27 +844,27 @@ impl<'a, 'i> Loader<'a, 'i> {
         let path = self.path;
         // the camera, placed from the bounds of the geometry (lights left
         // out, as in the course)
-        let bounds = self.builder.scene_mut().bounds();
+        let (lo, hi) = self.builder.world_bounds();
         let (focal, view) = match self.camera {
             Some((world, cam)) => {
                 let f = self.focal_pixels(cam)?;
                 // the course normalises the transformed point (0, 0, -1)
-                let d = world.transform_point3(-Vec3::Z).normalize_or_zero();
-                if d == Vec3::ZERO {
+                let d = world.transform_point3(-DVec3::Z).normalize_or_zero();
+                if d == DVec3::ZERO {
                     return Err(
                         self.fail(cam, "the camera node's transform leaves no view direction")
                     );
                 }
                 (Some(f), d)
             }
-            None => (None, Vec3::Z),
+            None => (None, DVec3::Z),
         };
         let mut notes = Vec::new();
-        let camera = if bounds.is_empty() {
-            Scene::framing_camera(&bounds)
+        let camera = if lo.x > hi.x {
+            WorldCamera::framing(lo, hi)
         } else {
-            let target = 0.5 * (bounds.min + bounds.max);
-            let distance = 1.5 * (bounds.max - bounds.min).length();
+            let target = 0.5 * (lo + hi);
+            let distance = 1.5 * (hi - lo).length();
             notes.push(format!(
                 "{}: camera placed as the course places it: {distance} from the centre of the geometry's bounds, along {view}",
                 path.display()
@@ -873,7 +875,7 @@ impl<'a, 'i> Loader<'a, 'i> {
             } else {
                 Vec3::Y
             };
-            super::CameraDesc {
+            WorldCamera {
                 origin: target + distance * view,
                 target,
                 up,
@@ -906,29 +908,9 @@ impl<'a, 'i> Loader<'a, 'i> {
                 ..MeshData::default()
             };
             self.builder
-                .add_mesh_matrix(mesh, Affine3A::IDENTITY, Some(a.line))?;
+                .add_mesh_matrix(mesh, DAffine3::IDENTITY, Some(a.line))?;
         }
         let ambient = self.ambient;
-        let mut scene = self.builder.build();
-        scene.camera = camera;
-        scene.resolution = WINDOW;
-        if let Some(f) = focal {
-            scene.set_focal_pixels(f);
-        }
-        // the course's defaults: 1 sample, 1 bounce, 1 sample per area light
-        scene.render.spp = 1;
-        scene.render.max_depth = 1;
-        let count = LightCount {
-            sampled: (n_areas + usize::from(ambient != Vec3::ZERO)) as u32,
-            delta: (self.point_lights.len() + self.directional_lights.len()) as u32,
-        };
-        scene.render.per_light = Some(count);
-        scene.render.light_samples = scene
-            .render
-            .light_samples_for(Some(1))
-            .min(limits::MAX_LIGHT_SAMPLES as u64) as u32;
-        scene.point_lights = self.point_lights;
-        scene.directional_lights = self.directional_lights;
         if ambient != Vec3::ZERO {
             // radiance from the upper hemisphere: rows from the +y pole to
             // the horizon lit
@@ -936,11 +918,28 @@ impl<'a, 'i> Loader<'a, 'i> {
                 .flat_map(|r| [if r <= AMBIENT_ROWS / 2 { 1.0 } else { 0.0 }; 3])
                 .collect();
             let map = ImageTexture::from_linear_rgb(1, AMBIENT_ROWS, rows)?;
-            scene.environment_map = Some(
+            self.builder.scene_mut().environment_map = Some(
                 EnvironmentMap::new(map, ambient)
                     .map_err(|e| Error::input(path, None, format!("ambient light: {e}")))?,
             );
         }
+        let count = LightCount {
+            sampled: (n_areas + usize::from(ambient != Vec3::ZERO)) as u32,
+            delta: (self.point_lights + self.directional_lights.len()) as u32,
+        };
+        self.builder.scene_mut().directional_lights = self.directional_lights;
+        self.builder.set_camera(camera);
+        self.builder.scene_mut().resolution = WINDOW;
+        self.builder.scene_mut().focal_pixels = focal;
+        let mut scene = self.builder.build();
+        // the course's defaults: 1 sample, 1 bounce, 1 sample per area light
+        scene.render.spp = 1;
+        scene.render.max_depth = 1;
+        scene.render.per_light = Some(count);
+        scene.render.light_samples = scene
+            .render
+            .light_samples_for(Some(1))
+            .min(limits::MAX_LIGHT_SAMPLES as u64) as u32;
         scene.notes.extend(notes);
         scene.warnings.extend(self.warnings);
         Ok(scene)
@@ -949,10 +948,10 @@ impl<'a, 'i> Loader<'a, 'i> {
 
 /// An area light as the file gives it.
 struct Area {
-    center: Vec3,
-    facing: Vec3,
-    dim_x: Vec3,
-    dim_y: Vec3,
+    center: DVec3,
+    facing: DVec3,
+    dim_x: DVec3,
+    dim_y: DVec3,
     radiance: Vec3,
     line: usize,
 }

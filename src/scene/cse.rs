@@ -50,14 +50,13 @@
 //! file and line.
 
 use super::limits::{self, MAX_DEPTH};
-use super::{CameraDesc, Material, MeshData, Scene, SceneBuilder};
-use crate::accel::Sphere;
+use super::{Material, MeshData, Scene, SceneBuilder, WorldCamera};
 use crate::bsdf::{Bsdf, Diffuse, Lobe, Microfacet, Phong};
 use crate::error::{Error, Result};
 use crate::integrator::{DirectStrategy, Roulette};
 use crate::light::{DirectionalLight, PointLight};
 use crate::math::Vec3;
-use glam::{Affine3A, Mat3A, Quat, Vec3A};
+use glam::{DAffine3, DMat3, DQuat, DVec3};
 use std::f32::consts::PI;
 use std::path::Path;
 
@@ -134,12 +133,25 @@ impl Loader<'_> {
 
     /// Exactly `N` numbers after the command.
     fn numbers<const N: usize>(&self, cmd: &str, args: &[&str]) -> Result<[f32; N]> {
+        let v = self.numbers64::<N>(cmd, args)?;
+        match v.iter().position(|x| !(*x as f32).is_finite()) {
+            Some(i) => Err(self.fail(format!(
+                "`{cmd}`: `{}` is not a finite number",
+                crate::error::one_line(args[i])
+            ))),
+            None => Ok(v.map(|x| x as f32)),
+        }
+    }
+
+    /// Exactly `N` numbers after the command, in f64 (positions and
+    /// transforms, which keep their precision until the scene is rebased).
+    fn numbers64<const N: usize>(&self, cmd: &str, args: &[&str]) -> Result<[f64; N]> {
         if args.len() != N {
             return Err(self.fail(format!("`{cmd}` takes {N} numbers, got {}", args.len())));
         }
         let mut out = [0.0; N];
         for (o, a) in out.iter_mut().zip(args) {
-            *o = match a.parse::<f32>() {
+            *o = match a.parse::<f64>() {
                 Ok(x) if x.is_finite() => x,
                 _ => {
                     return Err(self.fail(format!(
@@ -197,7 +209,7 @@ impl Loader<'_> {
 /// material state per triangle (indexing `states`).
 #[derive(Default)]
 struct Soup {
-    positions: Vec<Vec3>,
+    positions: Vec<DVec3>,
     normals: Vec<[Vec3; 3]>,
     tri_state: Vec<u32>,
     any_normals: bool,
@@ -205,7 +217,7 @@ struct Soup {
 }
 
 impl Soup {
-    fn push(&mut self, p: [Vec3; 3], n: Option<[Vec3; 3]>, state: u32, line: usize) {
+    fn push(&mut self, p: [DVec3; 3], n: Option<[Vec3; 3]>, state: u32, line: usize) {
         self.positions.extend(p);
         self.any_normals |= n.is_some();
         self.normals.push(n.unwrap_or([Vec3::ZERO; 3]));
@@ -221,7 +233,7 @@ impl Soup {
 /// Whether `m` is a uniform scale times a rotation (so that it maps a
 /// sphere to a sphere): its columns orthogonal and of one length, to a
 /// relative 1e-5. Returns the scale.
-fn similarity_scale(m: &Mat3A) -> Option<f32> {
+fn similarity_scale(m: &DMat3) -> Option<f64> {
     let c = [m.x_axis, m.y_axis, m.z_axis];
     let len = c.map(|v| v.length());
     let s = len[0];
@@ -242,11 +254,14 @@ fn unit_sphere_mesh(material: Material) -> MeshData {
         let theta = PI * i as f32 / rings as f32;
         for j in 0..segs {
             let phi = 2.0 * PI * j as f32 / segs as f32;
-            positions.push(Vec3::new(
-                theta.sin() * phi.cos(),
-                theta.cos(),
-                -theta.sin() * phi.sin(),
-            ));
+            positions.push(
+                Vec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.cos(),
+                    -theta.sin() * phi.sin(),
+                )
+                .as_dvec3(),
+            );
         }
     }
     let at = |i: u32, j: u32| i * segs + j % segs;
@@ -265,7 +280,7 @@ fn unit_sphere_mesh(material: Material) -> MeshData {
     }
     let normals = indices
         .iter()
-        .map(|t: &[u32; 3]| t.map(|k| positions[k as usize]))
+        .map(|t: &[u32; 3]| t.map(|k| positions[k as usize].as_vec3()))
         .collect();
     MeshData {
         name: "sphere".to_string(),
@@ -275,6 +290,8 @@ fn unit_sphere_mesh(material: Material) -> MeshData {
         materials: vec![material],
         uvs: Vec::new(),
         normals,
+        warnings: Vec::new(),
+        files: Vec::new(),
     }
 }
 
@@ -289,7 +306,7 @@ pub fn load(path: &Path) -> Result<Scene> {
     };
     let mut b = SceneBuilder::new(path);
     let mut resolution = [640u32, 480];
-    let mut camera: Option<CameraDesc> = None;
+    let mut camera: Option<WorldCamera> = None;
     let mut max_depth: u32 = 5;
     let mut unbounded = false;
     let mut integrator = Integrator::Raytracer;
@@ -298,16 +315,16 @@ pub fn load(path: &Path) -> Result<Scene> {
     let mut nee = DirectStrategy::Bsdf;
     let mut roulette = false;
 
-    let mut stack = vec![Affine3A::IDENTITY];
+    let mut stack = vec![DAffine3::IDENTITY];
     let mut attenuation = [1.0f32, 0.0, 0.0];
     let mut state = MaterialState::default();
     let mut states: Vec<(MaterialState, usize)> = Vec::new();
-    let mut vertices: Vec<Vec3> = Vec::new();
-    let mut vertex_normals: Vec<(Vec3, Vec3)> = Vec::new();
+    let mut vertices: Vec<DVec3> = Vec::new();
+    let mut vertex_normals: Vec<(DVec3, Vec3)> = Vec::new();
     let mut soup = Soup::default();
-    let mut spheres: Vec<(Sphere, u32, usize)> = Vec::new();
-    let mut ellipsoids: Vec<(Affine3A, u32, usize)> = Vec::new();
-    let mut quads: Vec<([Vec3; 4], Vec3, usize)> = Vec::new();
+    let mut spheres: Vec<(DVec3, f32, u32, usize)> = Vec::new();
+    let mut ellipsoids: Vec<(DAffine3, u32, usize)> = Vec::new();
+    let mut quads: Vec<([DVec3; 4], Vec3, usize)> = Vec::new();
     let mut point_lights = Vec::new();
     let mut directional_lights = Vec::new();
 
@@ -341,11 +358,11 @@ pub fn load(path: &Path) -> Result<Scene> {
                 resolution = [w as u32, h as u32];
             }
             "camera" => {
-                let v = ld.numbers::<10>(cmd, &args)?;
-                let origin = Vec3::new(v[0], v[1], v[2]);
-                let target = Vec3::new(v[3], v[4], v[5]);
-                let up = Vec3::new(v[6], v[7], v[8]);
-                let fov_y = v[9];
+                let v = ld.numbers64::<10>(cmd, &args)?;
+                let origin = DVec3::new(v[0], v[1], v[2]);
+                let target = DVec3::new(v[3], v[4], v[5]);
+                let up = DVec3::new(v[6], v[7], v[8]);
+                let fov_y = v[9] as f32;
                 if !(fov_y > 0.0 && fov_y < 180.0) {
                     return Err(ld.fail(format!(
                         "`camera`: fovy {fov_y} out of range (0, 180) degrees"
@@ -357,10 +374,10 @@ pub fn load(path: &Path) -> Result<Scene> {
                         "`camera`: the eye, the point looked at and the up vector leave the view undefined",
                     ));
                 }
-                camera = Some(CameraDesc {
+                camera = Some(WorldCamera {
                     origin,
                     target,
-                    up,
+                    up: up.as_vec3(),
                     fov_y,
                 });
             }
@@ -383,14 +400,17 @@ pub fn load(path: &Path) -> Result<Scene> {
                 if vertices.len() as u64 >= limits::MAX_VERTICES {
                     return Err(ld.fail(format!("more than {} vertices", limits::MAX_VERTICES)));
                 }
-                vertices.push(Vec3::from(ld.numbers::<3>(cmd, &args)?));
+                vertices.push(DVec3::from(ld.numbers64::<3>(cmd, &args)?));
             }
             "vertexnormal" => {
                 if vertex_normals.len() as u64 >= limits::MAX_VERTICES {
                     return Err(ld.fail(format!("more than {} vertices", limits::MAX_VERTICES)));
                 }
-                let v = ld.numbers::<6>(cmd, &args)?;
-                vertex_normals.push((Vec3::new(v[0], v[1], v[2]), Vec3::new(v[3], v[4], v[5])));
+                let v = ld.numbers64::<6>(cmd, &args)?;
+                vertex_normals.push((
+                    DVec3::new(v[0], v[1], v[2]),
+                    DVec3::new(v[3], v[4], v[5]).as_vec3(),
+                ));
             }
             "tri" | "trinormal" => {
                 let v = ld.numbers::<3>(cmd, &args)?;
@@ -413,18 +433,17 @@ pub fn load(path: &Path) -> Result<Scene> {
                     return Err(ld.fail(format!("more than {} primitives", limits::MAX_TRIANGLES)));
                 }
                 let s = state_index(&mut states, state, line);
-                let (p, normals) =
-                    if cmd == "tri" {
-                        (idx.map(|i| vertices[i]), None)
-                    } else {
-                        let normal_matrix = m.matrix3.inverse().transpose();
-                        (
-                            idx.map(|i| vertex_normals[i].0),
-                            Some(idx.map(|i| {
-                                Vec3::from(normal_matrix * Vec3A::from(vertex_normals[i].1))
-                            })),
-                        )
-                    };
+                let (p, normals) = if cmd == "tri" {
+                    (idx.map(|i| vertices[i]), None)
+                } else {
+                    let normal_matrix = m.matrix3.inverse().transpose();
+                    (
+                        idx.map(|i| vertex_normals[i].0),
+                        Some(
+                            idx.map(|i| (normal_matrix * vertex_normals[i].1.as_dvec3()).as_vec3()),
+                        ),
+                    )
+                };
                 let mut p = p.map(|q| m.transform_point3(q));
                 let mut normals = normals;
                 if m.matrix3.determinant() < 0.0 {
@@ -436,7 +455,7 @@ pub fn load(path: &Path) -> Result<Scene> {
                 soup.push(p, normals, s, line);
             }
             "sphere" => {
-                let [x, y, z, r] = ld.numbers::<4>(cmd, &args)?;
+                let [x, y, z, r] = ld.numbers64::<4>(cmd, &args)?;
                 if !(r > 0.0) {
                     return Err(ld.fail(format!("`sphere`: radius {r} must be positive")));
                 }
@@ -445,28 +464,19 @@ pub fn load(path: &Path) -> Result<Scene> {
                     return Err(ld.fail(format!("more than {} primitives", limits::MAX_TRIANGLES)));
                 }
                 let s = state_index(&mut states, state, line);
-                let local = Affine3A::from_translation(glam::Vec3::new(x, y, z))
-                    * Affine3A::from_scale(glam::Vec3::splat(r));
+                let local = DAffine3::from_translation(DVec3::new(x, y, z))
+                    * DAffine3::from_scale(DVec3::splat(r));
                 let placed = m * local;
-                let center = Vec3::from(placed.translation);
+                let center = placed.translation;
+                let max = limits::MAX_COORDINATE as f64;
                 match similarity_scale(&placed.matrix3) {
-                    Some(scale)
-                        if !(center.abs().max_element() <= limits::MAX_COORDINATE
-                            && scale <= limits::MAX_COORDINATE) =>
-                    {
+                    Some(scale) if !(center.abs().max_element() <= max && scale <= max) => {
                         return Err(ld.fail(format!(
                             "`sphere`: centre {center} or radius {scale} beyond {:e} after the transform",
                             limits::MAX_COORDINATE
                         )));
                     }
-                    Some(scale) => spheres.push((
-                        Sphere {
-                            center,
-                            radius: scale,
-                        },
-                        s,
-                        line,
-                    )),
+                    Some(scale) => spheres.push((center, scale as f32, s, line)),
                     None => {
                         ld.note(format!(
                             "sphere under a transform that is not a similarity: tessellated into an ellipsoid of {} triangles with smooth normals",
@@ -477,27 +487,27 @@ pub fn load(path: &Path) -> Result<Scene> {
                 }
             }
             "translate" => {
-                let v = ld.numbers::<3>(cmd, &args)?;
-                *stack.last_mut().expect("base") = m * Affine3A::from_translation(Vec3::from(v));
+                let v = ld.numbers64::<3>(cmd, &args)?;
+                *stack.last_mut().expect("base") = m * DAffine3::from_translation(DVec3::from(v));
             }
             "scale" => {
-                let v = Vec3::from(ld.numbers::<3>(cmd, &args)?);
+                let v = DVec3::from(ld.numbers64::<3>(cmd, &args)?);
                 if v.x * v.y * v.z == 0.0 {
                     return Err(ld.fail(format!(
                         "`scale {v}`: a zero scale flattens everything after it"
                     )));
                 }
-                *stack.last_mut().expect("base") = m * Affine3A::from_scale(v);
+                *stack.last_mut().expect("base") = m * DAffine3::from_scale(v);
             }
             "rotate" => {
-                let [x, y, z, deg] = ld.numbers::<4>(cmd, &args)?;
-                let axis = Vec3::new(x, y, z);
+                let [x, y, z, deg] = ld.numbers64::<4>(cmd, &args)?;
+                let axis = DVec3::new(x, y, z);
                 let len = axis.length();
                 if !(len > 0.0 && len.is_finite()) {
                     return Err(ld.fail("`rotate`: the axis is zero"));
                 }
-                let q = Quat::from_axis_angle(axis / len, deg.to_radians());
-                *stack.last_mut().expect("base") = m * Affine3A::from_quat(q);
+                let q = DQuat::from_axis_angle(axis / len, deg.to_radians());
+                *stack.last_mut().expect("base") = m * DAffine3::from_quat(q);
             }
             "pushTransform" => {
                 if stack.len() >= MAX_STACK {
@@ -512,19 +522,21 @@ pub fn load(path: &Path) -> Result<Scene> {
                 stack.pop();
             }
             "point" => {
-                let v = ld.numbers::<6>(cmd, &args)?;
+                let v = ld.numbers64::<6>(cmd, &args)?;
                 let colour = ld.colour(cmd, &args[3..])?;
-                let position = m.transform_point3(Vec3::new(v[0], v[1], v[2]));
-                let light = PointLight::new(position, PI * colour)
+                let position = m.transform_point3(DVec3::new(v[0], v[1], v[2]));
+                let light = PointLight::new(Vec3::ZERO, PI * colour)
                     .with_attenuation(attenuation)
                     .ok_or_else(|| ld.fail("attenuation leaves the point light undefined"))?;
-                point_lights.push(light);
+                point_lights.push((position, light));
             }
             "directional" => {
                 let v = ld.numbers::<6>(cmd, &args)?;
                 let colour = ld.colour(cmd, &args[3..])?;
                 // the file names the direction towards the light
-                let towards = m.transform_vector3(Vec3::new(v[0], v[1], v[2]));
+                let towards = m
+                    .transform_vector3(DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64))
+                    .as_vec3();
                 let light = DirectionalLight::new(-towards, PI * colour)
                     .ok_or_else(|| ld.fail("`directional`: the direction is zero"))?;
                 directional_lights.push(light);
@@ -540,11 +552,11 @@ pub fn load(path: &Path) -> Result<Scene> {
                 attenuation = a;
             }
             "quadLight" => {
-                let v = ld.numbers::<12>(cmd, &args)?;
+                let v = ld.numbers64::<12>(cmd, &args)?;
                 let radiance = ld.colour(cmd, &args[9..])?;
-                let a = Vec3::new(v[0], v[1], v[2]);
-                let ab = Vec3::new(v[3], v[4], v[5]);
-                let ac = Vec3::new(v[6], v[7], v[8]);
+                let a = DVec3::new(v[0], v[1], v[2]);
+                let ab = DVec3::new(v[3], v[4], v[5]);
+                let ac = DVec3::new(v[6], v[7], v[8]);
                 // wound so that the front is ac x ab
                 let corners = [a, a + ac, a + ab + ac, a + ab].map(|p| m.transform_point3(p));
                 quads.push((corners, radiance, line));
@@ -700,8 +712,10 @@ pub fn load(path: &Path) -> Result<Scene> {
             } else {
                 Vec::new()
             },
+            warnings: Vec::new(),
+            files: Vec::new(),
         };
-        b.add_mesh_matrix(mesh, Affine3A::IDENTITY, soup.first_line)?;
+        b.add_mesh_matrix(mesh, DAffine3::IDENTITY, soup.first_line)?;
     }
     if !quads.is_empty() {
         let mut mesh = MeshData {
@@ -722,10 +736,10 @@ pub fn load(path: &Path) -> Result<Scene> {
                 two_sided: false,
             });
         }
-        b.add_mesh_matrix(mesh, Affine3A::IDENTITY, quads.first().map(|q| q.2))?;
+        b.add_mesh_matrix(mesh, DAffine3::IDENTITY, quads.first().map(|q| q.2))?;
     }
-    for (sphere, s, line) in spheres {
-        b.add_sphere(sphere, materials[s as usize].clone(), Some(line))?;
+    for (center, radius, s, line) in spheres {
+        b.add_sphere(center, radius, materials[s as usize].clone(), Some(line))?;
     }
     for (placed, s, line) in ellipsoids {
         let mesh = unit_sphere_mesh(materials[s as usize].clone());
@@ -733,8 +747,13 @@ pub fn load(path: &Path) -> Result<Scene> {
     }
 
     // --- lights, camera, settings ---
+    for (position, light) in point_lights {
+        b.add_point_light(position, light);
+    }
+    if let Some(c) = camera {
+        b.set_camera(c);
+    }
     let scene = b.scene_mut();
-    scene.point_lights = point_lights;
     scene.directional_lights = directional_lights;
     scene.resolution = resolution;
     let r = &mut scene.render;
@@ -768,16 +787,6 @@ pub fn load(path: &Path) -> Result<Scene> {
         ));
     }
     let mut scene = b.build();
-    match camera {
-        Some(c) => scene.camera = c,
-        None => {
-            scene.camera = Scene::framing_camera(&scene.bounds());
-            scene.notes.push(format!(
-                "{}: no `camera`: framed from the scene's bounds",
-                path.display()
-            ));
-        }
-    }
     scene.notes.extend(ld.notes);
     scene.warnings.extend(ld.warnings);
     Ok(scene)

@@ -9,10 +9,23 @@
 //! and small enough that nothing downstream overflows, exhausts memory or
 //! crashes.
 //!
-//! File sizes are not capped: what a file holds is bounded by the file (an
-//! OBJ face costs at least six bytes), and the scene-wide triangle and
-//! vertex limits stop a large one at the line that crosses them. What costs
-//! time rather than memory (a high spp) is the user's to ask for.
+//! Files are read whole, so their sizes are capped too
+//! ([`MAX_SCENE_FILE_BYTES`], [`MAX_MESH_FILE_BYTES`]): a larger regular
+//! file is refused before a byte is read, and a device or pipe (`/dev/zero`)
+//! is read only up to the cap, or, for a text format, up to its first NUL
+//! byte. What costs time rather than memory (a high spp) is the user's to
+//! ask for.
+
+/// Largest scene description read whole (TOML, Mitsuba XML, COLLADA, `.test`,
+/// MTL): 256 MiB, far beyond any hand-written or exported scene file (their
+/// meshes live in files of their own).
+pub const MAX_SCENE_FILE_BYTES: u64 = 256 << 20;
+
+/// Largest mesh file read whole (OBJ, PLY): 1 GiB, about 15 million
+/// triangles of OBJ text or 40 million of binary PLY. Reading an OBJ takes
+/// about three times its size in memory at the peak (the bytes, the text
+/// checked for tobj, tobj's arrays), so this keeps a load within a few GiB.
+pub const MAX_MESH_FILE_BYTES: u64 = 1 << 30;
 
 /// Largest accepted image side, in pixels (32768).
 pub const MAX_RESOLUTION: u32 = 1 << 15;

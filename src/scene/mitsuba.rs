@@ -47,8 +47,7 @@
 //! a back face in view differs.
 
 use super::limits::{MAX_COORDINATE, check_max_depth, check_resolution, check_spp};
-use super::{CameraDesc, Material, MeshData, Scene, SceneBuilder, load_obj_mesh, load_ply_mesh};
-use crate::accel::Sphere;
+use super::{Material, MeshData, Scene, SceneBuilder, WorldCamera, load_obj_mesh, load_ply_mesh};
 use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Plastic};
 use crate::camera::ThinLens;
 use crate::error::{Error, Result, one_line};
@@ -57,7 +56,7 @@ use crate::light::envmap::EnvironmentMap;
 use crate::light::point::PointLight;
 use crate::math::{Vec2, Vec3};
 use crate::texture::ImageTexture;
-use glam::{Affine3A, Vec3A};
+use glam::{DAffine3, DMat3, DVec3};
 use roxmltree::{Document, Node};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -101,8 +100,8 @@ enum Value<'a, 'i> {
     Bool(bool),
     Text(String),
     Colour(Vec3),
-    Vector(Vec3),
-    Matrix(Affine3A),
+    Vector(DVec3),
+    Matrix(DAffine3),
     /// A nested plugin (`bsdf`, `texture`, `emitter`, `film`, `sampler`,
     /// `rfilter`), or a `ref` resolved to one.
     Object(Node<'a, 'i>),
@@ -240,22 +239,22 @@ impl<'a, 'i> Loader<'a, 'i> {
     }
 
     /// A vector from `value="x, y, z"` or `x= y= z=` (missing ones 0).
-    fn vector(&self, node: Node, what: &str) -> Result<Vec3> {
+    fn vector(&self, node: Node, what: &str) -> Result<DVec3> {
         if let Some(v) = self.attr(node, "value")? {
             let n = self.numbers(node, &v, what)?;
             return match n[..] {
-                [x, y, z] => Ok(Vec3::new(x as f32, y as f32, z as f32)),
-                [s] => Ok(Vec3::splat(s as f32)),
+                [x, y, z] => Ok(DVec3::new(x, y, z)),
+                [s] => Ok(DVec3::splat(s)),
                 _ => Err(self.fail(node, format!("{what}: expected three numbers"))),
             };
         }
-        let mut out = [0.0f32; 3];
+        let mut out = [0.0f64; 3];
         for (k, axis) in ["x", "y", "z"].iter().enumerate() {
             if let Some(v) = self.attr(node, axis)? {
-                out[k] = self.number(node, &v, what)? as f32;
+                out[k] = self.number(node, &v, what)?;
             }
         }
-        Ok(Vec3::from(out))
+        Ok(DVec3::from(out))
     }
 
     /// A colour: one number (grey) or three.
@@ -286,26 +285,26 @@ impl<'a, 'i> Loader<'a, 'i> {
     }
 
     /// A `<transform>`: its operations composed in file order.
-    fn transform(&mut self, node: Node<'a, 'i>) -> Result<Affine3A> {
-        let mut m = Affine3A::IDENTITY;
+    fn transform(&mut self, node: Node<'a, 'i>) -> Result<DAffine3> {
+        let mut m = DAffine3::IDENTITY;
         for op in node.children().filter(|n| n.is_element()) {
             let name = op.tag_name().name();
             let what = format!("<{name}>");
             let step = match name {
-                "translate" => Affine3A::from_translation(self.vector(op, &what)?),
+                "translate" => DAffine3::from_translation(self.vector(op, &what)?),
                 "scale" => {
                     let s = if op.attribute("value").is_some() {
                         self.vector(op, &what)?
                     } else {
-                        let mut s = [1.0f32; 3];
+                        let mut s = [1.0f64; 3];
                         for (k, axis) in ["x", "y", "z"].iter().enumerate() {
                             if let Some(v) = self.attr(op, axis)? {
-                                s[k] = self.number(op, &v, &what)? as f32;
+                                s[k] = self.number(op, &v, &what)?;
                             }
                         }
-                        Vec3::from(s)
+                        DVec3::from(s)
                     };
-                    Affine3A::from_scale(s)
+                    DAffine3::from_scale(s)
                 }
                 "rotate" => {
                     let axis = self.vector(op, &what)?;
@@ -313,12 +312,12 @@ impl<'a, 'i> Loader<'a, 'i> {
                     if !(axis.length() > 0.0) || !axis.is_finite() {
                         return Err(self.fail(op, "<rotate>: the axis must be non-zero"));
                     }
-                    Affine3A::from_axis_angle(axis.normalize(), (angle as f32).to_radians())
+                    DAffine3::from_axis_angle(axis.normalize(), angle.to_radians())
                 }
                 "matrix" => {
                     let v = self.need_attr(op, "value")?;
                     let n = self.numbers(op, &v, &what)?;
-                    let f = |r: usize, c: usize, w: usize| n[r * w + c] as f32;
+                    let f = |r: usize, c: usize, w: usize| n[r * w + c];
                     match n.len() {
                         16 => {
                             let last = [f(3, 0, 4), f(3, 1, 4), f(3, 2, 4), f(3, 3, 4)];
@@ -328,17 +327,17 @@ impl<'a, 'i> Loader<'a, 'i> {
                                     "<matrix>: a projective last row is not supported (expected 0 0 0 1)",
                                 ));
                             }
-                            Affine3A::from_cols(
-                                Vec3A::new(f(0, 0, 4), f(1, 0, 4), f(2, 0, 4)),
-                                Vec3A::new(f(0, 1, 4), f(1, 1, 4), f(2, 1, 4)),
-                                Vec3A::new(f(0, 2, 4), f(1, 2, 4), f(2, 2, 4)),
-                                Vec3A::new(f(0, 3, 4), f(1, 3, 4), f(2, 3, 4)),
+                            DAffine3::from_cols(
+                                DVec3::new(f(0, 0, 4), f(1, 0, 4), f(2, 0, 4)),
+                                DVec3::new(f(0, 1, 4), f(1, 1, 4), f(2, 1, 4)),
+                                DVec3::new(f(0, 2, 4), f(1, 2, 4), f(2, 2, 4)),
+                                DVec3::new(f(0, 3, 4), f(1, 3, 4), f(2, 3, 4)),
                             )
                         }
-                        9 => Affine3A::from_mat3(glam::Mat3::from_cols(
-                            Vec3::new(f(0, 0, 3), f(1, 0, 3), f(2, 0, 3)),
-                            Vec3::new(f(0, 1, 3), f(1, 1, 3), f(2, 1, 3)),
-                            Vec3::new(f(0, 2, 3), f(1, 2, 3), f(2, 2, 3)),
+                        9 => DAffine3::from_mat3(DMat3::from_cols(
+                            DVec3::new(f(0, 0, 3), f(1, 0, 3), f(2, 0, 3)),
+                            DVec3::new(f(0, 1, 3), f(1, 1, 3), f(2, 1, 3)),
+                            DVec3::new(f(0, 2, 3), f(1, 2, 3), f(2, 2, 3)),
                         )),
                         _ => {
                             return Err(
@@ -349,11 +348,11 @@ impl<'a, 'i> Loader<'a, 'i> {
                 }
                 "lookat" => {
                     let point =
-                        |key: &str| -> Result<Vec3> {
+                        |key: &str| -> Result<DVec3> {
                             let v = self.need_attr(op, key)?;
                             let n = self.numbers(op, &v, &format!("<lookat> {key}"))?;
                             match n[..] {
-                                [x, y, z] => Ok(Vec3::new(x as f32, y as f32, z as f32)),
+                                [x, y, z] => Ok(DVec3::new(x, y, z)),
                                 _ => Err(self
                                     .fail(op, format!("<lookat> {key}: expected three numbers"))),
                             }
@@ -362,18 +361,18 @@ impl<'a, 'i> Loader<'a, 'i> {
                     let target = point("target")?;
                     let up = match op.attribute("up") {
                         Some(_) => point("up")?,
-                        None => Vec3::Y,
+                        None => DVec3::Y,
                     };
                     let dir = (target - origin).normalize_or_zero();
                     let left = up.cross(dir).normalize_or_zero();
-                    if dir == Vec3::ZERO || left == Vec3::ZERO {
+                    if dir == DVec3::ZERO || left == DVec3::ZERO {
                         return Err(self.fail(
                             op,
                             "<lookat>: origin and target coincide, or up is parallel to the view",
                         ));
                     }
                     let new_up = dir.cross(left);
-                    Affine3A::from_cols(left.into(), new_up.into(), dir.into(), origin.into())
+                    DAffine3::from_cols(left, new_up, dir, origin)
                 }
                 other => {
                     return Err(self.fail(
@@ -574,7 +573,7 @@ impl<'a, 'i> Loader<'a, 'i> {
                     }
                 }
                 "shape" => self.shape(c, &mut b)?,
-                "emitter" => self.emitter(c, b.scene_mut())?,
+                "emitter" => self.emitter(c, &mut b)?,
                 "include" => {
                     return Err(
                         self.fail(c, "<include> is not part of the supported Mitsuba subset")
@@ -594,18 +593,11 @@ impl<'a, 'i> Loader<'a, 'i> {
         if let Some(node) = integrator {
             rr_depth = self.integrator(node, &mut render)?;
         }
-        let mut scene = b.build();
         match sensor {
-            Some(s) => self.sensor(s, &mut scene, &mut render)?,
-            None => {
-                let desc = Scene::framing_camera(&scene.bounds());
-                scene.camera = desc;
-                scene.resolution = [768, 576];
-                scene
-                    .notes
-                    .push("no <sensor>: camera framed automatically from the scene bounds".into());
-            }
+            Some(s) => self.sensor(s, &mut b, &mut render)?,
+            None => b.scene_mut().resolution = [768, 576],
         }
+        let mut scene = b.build();
         if let Some(rr) = rr_depth {
             render.rr_depth = rr;
         }
@@ -678,9 +670,10 @@ impl<'a, 'i> Loader<'a, 'i> {
     fn sensor(
         &mut self,
         node: Node<'a, 'i>,
-        scene: &mut Scene,
+        b: &mut SceneBuilder,
         render: &mut super::RenderDefaults,
     ) -> Result<()> {
+        let scene = b.scene_mut();
         let kind = self.need_attr(node, "type")?;
         if kind != "perspective" && kind != "thinlens" {
             return Err(self.fail(
@@ -750,11 +743,11 @@ impl<'a, 'i> Loader<'a, 'i> {
             }
             self.finish(sp);
         }
-        let m = p.matrix("to_world").unwrap_or(Affine3A::IDENTITY);
-        let origin = Vec3::from(m.translation);
-        let dir = Vec3::from(m.matrix3 * Vec3A::Z).normalize_or_zero();
-        let up = Vec3::from(m.matrix3 * Vec3A::Y);
-        if dir == Vec3::ZERO || up.cross(dir) == Vec3::ZERO {
+        let m = p.matrix("to_world").unwrap_or(DAffine3::IDENTITY);
+        let origin = m.translation;
+        let dir = (m.matrix3 * DVec3::Z).normalize_or_zero();
+        let up = m.matrix3 * DVec3::Y;
+        if dir == DVec3::ZERO || up.cross(dir) == DVec3::ZERO {
             return Err(self.fail(
                 node,
                 "sensor to_world: the view direction or up is degenerate",
@@ -766,7 +759,7 @@ impl<'a, 'i> Loader<'a, 'i> {
                 "sensor to_world mirrors the image; embertrace renders it unmirrored",
             );
         }
-        if origin.abs().max_element() > MAX_COORDINATE {
+        if origin.abs().max_element() > MAX_COORDINATE as f64 {
             return Err(self.fail(
                 node,
                 format!("sensor origin {origin} is beyond +-{MAX_COORDINATE:e}"),
@@ -811,12 +804,13 @@ impl<'a, 'i> Loader<'a, 'i> {
                 ));
             }
         };
-        scene.camera = CameraDesc {
+        b.set_camera(WorldCamera {
             origin,
             target: origin + dir,
-            up,
+            up: up.as_vec3(),
             fov_y: (2.0 * ty.atan()).to_degrees() as f32,
-        };
+        });
+        let scene = b.scene_mut();
         if kind == "thinlens" {
             let radius = p.number("aperture_radius").map_or(0.03, |v| v.0);
             let focus = p.number("focus_distance").map_or(0.0, |v| v.0);
@@ -857,7 +851,7 @@ impl<'a, 'i> Loader<'a, 'i> {
             material.emission = ep.colour(self, "radiance")?.unwrap_or(Vec3::ONE);
             self.finish(ep);
         }
-        let m = p.matrix("to_world").unwrap_or(Affine3A::IDENTITY);
+        let m = p.matrix("to_world").unwrap_or(DAffine3::IDENTITY);
         let flip = p.boolean("flip_normals").is_some_and(|v| v.0);
         let face_normals = p.boolean("face_normals").is_some_and(|v| v.0);
         let mut mesh = match kind.as_str() {
@@ -866,10 +860,8 @@ impl<'a, 'i> Loader<'a, 'i> {
                     self.fail(node, format!("shape `{kind}` needs a `filename` string"))
                 })?;
                 let full = self.dir.join(&file);
-                if !full.is_file() {
-                    return Err(
-                        self.fail(node, format!("mesh file `{}` not found", one_line(&file)))
-                    );
+                if let Some(why) = super::not_a_file(&full) {
+                    return Err(self.fail(node, format!("mesh file `{}` {why}", one_line(&file))));
                 }
                 let mut mesh = if kind == "obj" {
                     load_obj_mesh(&full)?
@@ -894,7 +886,7 @@ impl<'a, 'i> Loader<'a, 'i> {
             "cube" => cube_mesh(),
             "disk" => disk_mesh(),
             "sphere" => {
-                let center = p.vector("center").unwrap_or(Vec3::ZERO);
+                let center = p.vector("center").unwrap_or(DVec3::ZERO);
                 let radius = p.number("radius").map_or(1.0, |v| v.0) as f32;
                 let (c, r) = self.sphere_placement(node, &m, center, radius)?;
                 if flip {
@@ -904,17 +896,13 @@ impl<'a, 'i> Loader<'a, 'i> {
                     );
                 }
                 self.finish(p);
-                if !(r > 0.0 && (c.abs() + Vec3::splat(r)).max_element() <= MAX_COORDINATE) {
+                if !(r > 0.0 && (c.abs() + r as f64).max_element() <= MAX_COORDINATE as f64) {
                     return Err(self.fail(
                         node,
                         format!("sphere at {c} of radius {r}: the radius must be > 0 and the sphere within +-{MAX_COORDINATE:e}"),
                     ));
                 }
-                let sphere = Sphere {
-                    center: c,
-                    radius: r,
-                };
-                return b.add_sphere(sphere, material, line);
+                return b.add_sphere(c, r, material, line);
             }
             other => {
                 return Err(self.fail(
@@ -967,10 +955,10 @@ impl<'a, 'i> Loader<'a, 'i> {
     fn sphere_placement(
         &self,
         node: Node,
-        m: &Affine3A,
-        center: Vec3,
+        m: &DAffine3,
+        center: DVec3,
         radius: f32,
-    ) -> Result<(Vec3, f32)> {
+    ) -> Result<(DVec3, f32)> {
         let cols = [m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis];
         let s = cols[0].length();
         let similar = cols.iter().all(|c| (c.length() - s).abs() <= 1e-5 * s)
@@ -983,7 +971,7 @@ impl<'a, 'i> Loader<'a, 'i> {
                 "sphere to_world must scale uniformly (an ellipsoid is not a sphere)",
             ));
         }
-        Ok((m.transform_point3(center), radius * s))
+        Ok((m.transform_point3(center), radius * s as f32))
     }
 
     fn texture(&mut self, node: Node<'a, 'i>) -> Result<Arc<ImageTexture>> {
@@ -1021,8 +1009,8 @@ impl<'a, 'i> Loader<'a, 'i> {
         if let Some(t) = self.textures.get(&full) {
             return Ok(t.clone());
         }
-        if !full.is_file() {
-            return Err(self.fail(node, format!("bitmap `{}` not found", one_line(&file))));
+        if let Some(why) = super::not_a_file(&full) {
+            return Err(self.fail(node, format!("bitmap `{}` {why}", one_line(&file))));
         }
         let t = Arc::new(ImageTexture::load(&full)?);
         self.textures.insert(full, t.clone());
@@ -1233,35 +1221,36 @@ impl<'a, 'i> Loader<'a, 'i> {
         Ok(())
     }
 
-    fn emitter(&mut self, node: Node<'a, 'i>, scene: &mut Scene) -> Result<()> {
+    fn emitter(&mut self, node: Node<'a, 'i>, b: &mut SceneBuilder) -> Result<()> {
         let kind = self.need_attr(node, "type")?;
         let mut p = self.params(node)?;
+        let mut point_light = None;
+        let scene = b.scene_mut();
         match kind.as_str() {
             "point" => {
                 let at = match p.vector("position") {
                     Some(v) => v,
-                    None => Vec3::from(
+                    None => {
                         p.matrix("to_world")
-                            .unwrap_or(Affine3A::IDENTITY)
-                            .translation,
-                    ),
+                            .unwrap_or(DAffine3::IDENTITY)
+                            .translation
+                    }
                 };
-                if at.abs().max_element() > MAX_COORDINATE {
+                if at.abs().max_element() > MAX_COORDINATE as f64 {
                     return Err(self.fail(
                         node,
                         format!("point light at {at}: beyond +-{MAX_COORDINATE:e}"),
                     ));
                 }
                 let i = p.colour(self, "intensity")?.unwrap_or(Vec3::ONE);
-                scene.point_lights.push(PointLight::new(at, i));
+                point_light = Some((at, PointLight::new(Vec3::ZERO, i)));
             }
             "directional" => {
                 let d = match p.vector("direction") {
                     Some(v) => v,
-                    None => Vec3::from(
-                        p.matrix("to_world").unwrap_or(Affine3A::IDENTITY).matrix3 * Vec3A::Z,
-                    ),
-                };
+                    None => p.matrix("to_world").unwrap_or(DAffine3::IDENTITY).matrix3 * DVec3::Z,
+                }
+                .as_vec3();
                 let e = p.colour(self, "irradiance")?.unwrap_or(Vec3::ONE);
                 let light = DirectionalLight::new(d, e).ok_or_else(|| {
                     self.fail(
@@ -1284,7 +1273,7 @@ impl<'a, 'i> Loader<'a, 'i> {
                     return Err(self.fail(node, format!("envmap scale {scale}: expected >= 0")));
                 }
                 if let Some(m) = p.matrix("to_world") {
-                    if !m.abs_diff_eq(Affine3A::IDENTITY, 1e-6) {
+                    if !m.abs_diff_eq(DAffine3::IDENTITY, 1e-6) {
                         return Err(self.fail(
                             node,
                             "envmap to_world other than the identity is not in the subset",
@@ -1295,8 +1284,8 @@ impl<'a, 'i> Loader<'a, 'i> {
                     return Err(self.fail(node, "a second envmap (one image map per scene)"));
                 }
                 let full = self.dir.join(&file);
-                if !full.is_file() {
-                    return Err(self.fail(node, format!("envmap `{}` not found", one_line(&file))));
+                if let Some(why) = super::not_a_file(&full) {
+                    return Err(self.fail(node, format!("envmap `{}` {why}", one_line(&file))));
                 }
                 scene.environment_map = Some(EnvironmentMap::load(&full, Vec3::splat(scale))?);
             }
@@ -1312,6 +1301,9 @@ impl<'a, 'i> Loader<'a, 'i> {
                     ),
                 ));
             }
+        }
+        if let Some((at, light)) = point_light {
+            b.add_point_light(at, light);
         }
         self.finish(p);
         Ok(())
@@ -1368,7 +1360,7 @@ impl<'a, 'i> Params<'a, 'i> {
         .map(|v| v.0)
     }
 
-    fn vector(&mut self, name: &str) -> Option<Vec3> {
+    fn vector(&mut self, name: &str) -> Option<DVec3> {
         self.take_as(name, "a <point> or <vector>", |v| match v {
             Value::Vector(x) => Some(*x),
             _ => None,
@@ -1376,7 +1368,7 @@ impl<'a, 'i> Params<'a, 'i> {
         .map(|v| v.0)
     }
 
-    fn matrix(&mut self, name: &str) -> Option<Affine3A> {
+    fn matrix(&mut self, name: &str) -> Option<DAffine3> {
         self.take_as(name, "a <transform>", |v| match v {
             Value::Matrix(x) => Some(*x),
             _ => None,
@@ -1431,7 +1423,7 @@ impl<'a, 'i> Params<'a, 'i> {
 
 /// Two triangles over the corners `c` (counter-clockwise seen from the
 /// front), with UVs (0, 0) to (1, 1) as Mitsuba's rectangle has them.
-fn quad_mesh(c: &[[f32; 3]; 4]) -> MeshData {
+fn quad_mesh(c: &[[f64; 3]; 4]) -> MeshData {
     let uv = [
         Vec2::new(0.0, 0.0),
         Vec2::new(1.0, 0.0),
@@ -1440,12 +1432,14 @@ fn quad_mesh(c: &[[f32; 3]; 4]) -> MeshData {
     ];
     MeshData {
         name: String::new(),
-        positions: c.iter().map(|&p| Vec3::from(p)).collect(),
+        positions: c.iter().map(|&p| DVec3::from(p)).collect(),
         indices: vec![[0, 1, 2], [0, 2, 3]],
         tri_material: vec![0, 0],
         materials: Vec::new(),
         uvs: vec![[uv[0], uv[1], uv[2]], [uv[0], uv[2], uv[3]]],
         normals: Vec::new(),
+        warnings: Vec::new(),
+        files: Vec::new(),
     }
 }
 
@@ -1468,7 +1462,7 @@ fn cube_mesh() -> MeshData {
             let v = n.cross(u);
             let base = mesh.positions.len() as u32;
             for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-                mesh.positions.push(n + a * u + b * v);
+                mesh.positions.push((n + a * u + b * v).as_dvec3());
             }
             mesh.indices.push([base, base + 1, base + 2]);
             mesh.indices.push([base, base + 2, base + 3]);
@@ -1490,13 +1484,12 @@ fn cube_mesh() -> MeshData {
 /// its centre.
 fn disk_mesh() -> MeshData {
     let mut mesh = MeshData {
-        positions: vec![Vec3::ZERO],
+        positions: vec![DVec3::ZERO],
         ..MeshData::default()
     };
     for i in 0..DISK_SEGMENTS {
         let phi = std::f64::consts::TAU * i as f64 / DISK_SEGMENTS as f64;
-        mesh.positions
-            .push(Vec3::new(phi.cos() as f32, phi.sin() as f32, 0.0));
+        mesh.positions.push(DVec3::new(phi.cos(), phi.sin(), 0.0));
     }
     let n = DISK_SEGMENTS as u32;
     for i in 0..n {
@@ -1513,7 +1506,7 @@ mod tests {
     #[test]
     fn generated_shapes_face_the_way_mitsuba_says() {
         let normal = |m: &MeshData, t: usize| {
-            let [a, b, c] = m.indices[t].map(|i| m.positions[i as usize]);
+            let [a, b, c] = m.indices[t].map(|i| m.positions[i as usize].as_vec3());
             (b - a).cross(c - a).normalize()
         };
         let r = quad_mesh(&[
@@ -1526,7 +1519,7 @@ mod tests {
         let c = cube_mesh();
         assert_eq!(c.indices.len(), 12);
         for t in 0..12 {
-            let [a, b, d] = c.indices[t].map(|i| c.positions[i as usize]);
+            let [a, b, d] = c.indices[t].map(|i| c.positions[i as usize].as_vec3());
             let centre = (a + b + d) / 3.0;
             assert!(normal(&c, t).dot(centre) > 0.0, "face {t} points inwards");
         }
@@ -1537,7 +1530,7 @@ mod tests {
         // area: (n / 2) sin(2 pi / n), short of pi by a relative 2.5e-4 at most
         let area: f32 = (0..DISK_SEGMENTS)
             .map(|t| {
-                let [a, b, c] = d.indices[t].map(|i| d.positions[i as usize]);
+                let [a, b, c] = d.indices[t].map(|i| d.positions[i as usize].as_vec3());
                 0.5 * (b - a).cross(c - a).length()
             })
             .sum();

@@ -21,12 +21,16 @@ use crate::camera::{Camera, ThinLens};
 use crate::error::{Error, Result};
 use crate::integrator::{DirectStrategy, Roulette};
 use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
-use crate::math::{Ray, SurfacePoint, Vec2, Vec3, needle_factor, triangle_normal};
+use crate::math::{DVec3, Ray, SurfacePoint, Vec2, Vec3, needle_factor, triangle_normal};
 use crate::texture::ImageTexture;
+use glam::DAffine3;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-pub use limits::{MAX_COORDINATE, MAX_PIXELS, MAX_RESOLUTION, MAX_TRIANGLES, MAX_VERTICES};
+pub use limits::{
+    MAX_COORDINATE, MAX_MESH_FILE_BYTES, MAX_PIXELS, MAX_RESOLUTION, MAX_SCENE_FILE_BYTES,
+    MAX_TRIANGLES, MAX_VERTICES,
+};
 pub use obj::load_obj_mesh;
 pub use ply::{MAX_POLYGON, load_ply_mesh};
 
@@ -192,7 +196,11 @@ pub struct MeshRange {
 pub struct Scene {
     /// The file the scene came from.
     pub source: PathBuf,
-    /// Vertex positions in world space.
+    /// The mesh files and material libraries it read, each once (textures
+    /// and environment maps know their own files): inputs that no output
+    /// may overwrite.
+    pub mesh_files: Vec<PathBuf>,
+    /// Vertex positions in render space (world minus [`Scene::world_origin`]).
     pub positions: Vec<Vec3>,
     /// Three vertex indices per triangle, counter-clockwise seen from the front.
     pub indices: Vec<[u32; 3]>,
@@ -227,8 +235,14 @@ pub struct Scene {
     pub point_lights: Vec<PointLight>,
     /// Directional lights.
     pub directional_lights: Vec<DirectionalLight>,
-    /// The camera.
+    /// The camera, in render space.
     pub camera: CameraDesc,
+    /// The world point at the origin of render space: every position above
+    /// (vertices, spheres, point lights, camera) is its world position minus
+    /// this, computed in f64 before rounding to f32 (see
+    /// [`render_origin`]). Zero unless the camera is far from the world's
+    /// origin compared with what it looks at.
+    pub world_origin: DVec3,
     /// The camera's lens (a pinhole unless the scene sets an aperture).
     pub lens: ThinLens,
     /// A focal length in pixels that the field of view follows (CS184's
@@ -416,46 +430,174 @@ impl Scene {
     pub fn has_emitters(&self) -> bool {
         (0..self.primitive_count()).any(|i| self.material(i as u32).emission.max_element() > 0.0)
     }
+}
 
-    /// A camera that frames the scene's bounds from the +z side.
-    pub fn framing_camera(bounds: &Bounds) -> CameraDesc {
+/// A camera placed in world space (f64), before the scene is rebased.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WorldCamera {
+    /// Eye position.
+    pub origin: DVec3,
+    /// Point looked at.
+    pub target: DVec3,
+    /// Up direction (need not be orthogonal to the view direction).
+    pub up: Vec3,
+    /// Vertical field of view in degrees.
+    pub fov_y: f32,
+}
+
+impl WorldCamera {
+    /// A camera that frames the world box `[min, max]` (empty when `min > max`):
+    /// from the +z side, or looking down -y or -x on a box flat in y or x
+    /// (a floor, a wall), which seen from +z would be edge-on and empty.
+    pub fn framing(min: DVec3, max: DVec3) -> WorldCamera {
         let fov_y = 39.3f32;
-        let (centre, radius) = if bounds.is_empty() {
-            (Vec3::ZERO, 1.0)
+        let (centre, size) = if min.x > max.x {
+            (DVec3::ZERO, DVec3::splat(2.0 / 3f64.sqrt()))
         } else {
-            let c = 0.5 * (bounds.min + bounds.max);
-            (c, (0.5 * (bounds.max - bounds.min).length()).max(1e-6))
+            (0.5 * (min + max), max - min)
         };
-        let dist = radius / (0.5 * fov_y.to_radians()).sin() * 1.05;
-        CameraDesc {
-            origin: centre + Vec3::new(0.0, 0.0, dist),
+        let radius = (0.5 * size.length()).max(1e-6);
+        let dist = radius / (0.5 * (fov_y as f64).to_radians()).sin() * 1.05;
+        // a box whose extent in y (or x) is under 1e-3 of its largest is flat
+        let flat = |k: f64| k < 1e-3 * size.max_element();
+        let (axis, up) = if flat(size.y) && !flat(size.z) {
+            (DVec3::Y, -Vec3::Z)
+        } else if flat(size.x) && !flat(size.z) {
+            (DVec3::X, Vec3::Y)
+        } else {
+            (DVec3::Z, Vec3::Y)
+        };
+        WorldCamera {
+            origin: centre + dist * axis,
             target: centre,
-            up: Vec3::Y,
+            up,
             fov_y,
         }
     }
 }
 
-/// The largest scene file read whole (an XML tree or a `.test` file's
-/// lines are held in memory).
-pub const MAX_SCENE_FILE_BYTES: u64 = 256 << 20;
+/// The world point a scene seen by `camera` is rebased to, so that positions
+/// near the camera keep f32's precision wherever the world puts them (the
+/// camera-relative render space of pbrt-v4, section 5.1.1 of *Physically
+/// Based Rendering*, 4th edition): the camera's position rounded to a
+/// multiple of `s`, the power of two nearest 8 times its distance `l` to its
+/// target (`2^(round(log2 l) + 3)`, between 5.7 and 11.3 times `l`: the
+/// unit view distances that Mitsuba's `to_world` cameras give sit in the
+/// middle of a step, not on its edge). Rounding keeps a scene near the
+/// world's origin as it is (zero until the camera is `s / 2` from it), and
+/// makes the subtraction exact for coordinates on a coarser grid than `s`. What
+/// rebasing cannot recover is precision the camera's own view lacks: a
+/// point `d` from the camera lands within about `d * 2^-24` of where it
+/// should in f32, whatever the world's offset.
+pub fn render_origin(camera: &WorldCamera) -> DVec3 {
+    let l = (camera.target - camera.origin).length();
+    if !(l > 0.0 && l.is_finite() && camera.origin.is_finite()) {
+        return DVec3::ZERO;
+    }
+    let s = 2f64.powi(l.log2().round() as i32 + 3);
+    (camera.origin / s).round() * s
+}
 
-/// A text scene file, read whole: refused beyond [`MAX_SCENE_FILE_BYTES`],
-/// and with the line of the first byte that is not UTF-8.
-fn read_scene_text(path: &Path) -> Result<String> {
-    let size = std::fs::metadata(path)
-        .map_err(|e| Error::io(path, e))?
-        .len();
-    if size > MAX_SCENE_FILE_BYTES {
-        return Err(Error::input(
+/// What a file read by [`read_bounded`] must look like.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Content {
+    /// Text: a NUL byte (binary data, UTF-16, `/dev/zero`) is refused at
+    /// its line as soon as it is read.
+    Text,
+    /// Data that starts with these bytes, in the named format.
+    Magic(&'static [u8], &'static str),
+}
+
+/// Read `path` whole, refusing files over `limit` bytes before reading them
+/// (devices and pipes, which have no size, after `limit` bytes) and data that
+/// is not `content`, as early as it shows.
+pub(crate) fn read_bounded(path: &Path, limit: u64, content: Content) -> Result<Vec<u8>> {
+    use std::io::Read;
+    let too_big = |size: String| {
+        Error::input(
             path,
             None,
-            format!(
-                "{size} bytes: larger than the {MAX_SCENE_FILE_BYTES} bytes a scene file may have"
-            ),
-        ));
+            format!("{size} bytes: larger than the {limit} bytes such a file may have"),
+        )
+    };
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if meta.is_dir() {
+        return Err(Error::input(path, None, "is a directory, expected a file"));
     }
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    if meta.len() > limit {
+        return Err(too_big(meta.len().to_string()));
+    }
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut reader = file.take(limit + 1);
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    let mut chunk = vec![0u8; 1 << 16];
+    loop {
+        let n = match reader.read(&mut chunk) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(Error::io(path, e)),
+        };
+        let start = bytes.len();
+        bytes.extend_from_slice(&chunk[..n]);
+        match content {
+            Content::Text => {
+                if let Some(i) = chunk[..n].iter().position(|&b| b == 0) {
+                    let line = bytes[..start + i].iter().filter(|&&b| b == b'\n').count() + 1;
+                    return Err(Error::input(
+                        path,
+                        Some(line),
+                        "binary data (a NUL byte): not a text file (UTF-16 text must be converted to UTF-8)",
+                    ));
+                }
+            }
+            Content::Magic(magic, format) => {
+                let have = bytes.len().min(magic.len());
+                if bytes[..have] != magic[..have] {
+                    return Err(not_format(path, magic, format));
+                }
+            }
+        }
+        if bytes.len() as u64 > limit {
+            return Err(too_big(format!("more than {limit}")));
+        }
+    }
+    if let Content::Magic(magic, format) = content {
+        if bytes.len() < magic.len() {
+            return Err(not_format(path, magic, format));
+        }
+    }
+    Ok(bytes)
+}
+
+/// Why a file a scene names cannot be read as one: `None` when it is a
+/// file, else "is a directory" or "not found".
+pub(crate) fn not_a_file(path: &Path) -> Option<&'static str> {
+    if path.is_file() {
+        None
+    } else if path.is_dir() {
+        Some("is a directory")
+    } else {
+        Some("not found")
+    }
+}
+
+/// The error for a file that lacks its format's `magic` first bytes.
+fn not_format(path: &Path, magic: &[u8], format: &str) -> Error {
+    Error::input(
+        path,
+        None,
+        format!(
+            "does not start with `{}`: not a {format} file",
+            String::from_utf8_lossy(magic)
+        ),
+    )
+}
+
+/// A text scene file, read whole (see [`read_bounded`]), with the line of
+/// the first byte that is not UTF-8.
+fn read_scene_text(path: &Path) -> Result<String> {
+    let bytes = read_bounded(path, MAX_SCENE_FILE_BYTES, Content::Text)?;
     String::from_utf8(bytes).map_err(|e| {
         let bytes = &e.as_bytes()[..e.utf8_error().valid_up_to()];
         let line = bytes.iter().filter(|&&b| b == b'\n').count() + 1;
@@ -468,18 +610,8 @@ fn read_scene_text(path: &Path) -> Result<String> {
 fn bare_scene(path: &Path, mesh: MeshData) -> Result<Scene> {
     let mut b = SceneBuilder::new(path);
     b.add_mesh_from(mesh, &Transform::default(), None)?;
-    let mut scene = b.build();
-    scene.camera = Scene::framing_camera(&scene.bounds());
-    scene
-        .notes
-        .push("camera framed automatically from the mesh bounds".to_string());
-    if !scene.has_emitters() {
-        scene.environment = Some(Vec3::ONE);
-        scene.notes.push(
-            "no emitters in the mesh: lighting it with a uniform white environment".to_string(),
-        );
-    }
-    Ok(scene)
+    b.light_if_dark = true;
+    Ok(b.build())
 }
 
 /// An axis-aligned box.
@@ -512,35 +644,37 @@ impl Bounds {
     }
 }
 
-/// An affine placement: scale, then rotate about an axis, then translate.
+/// An affine placement: scale, then rotate about an axis, then translate,
+/// composed in f64 (a large translation keeps its precision until the scene
+/// is rebased).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Transform {
     /// Per-axis scale.
-    pub scale: Vec3,
+    pub scale: DVec3,
     /// Rotation axis (any length but zero) and angle in degrees.
-    pub rotate: Option<(Vec3, f32)>,
+    pub rotate: Option<(DVec3, f64)>,
     /// Translation.
-    pub translate: Vec3,
+    pub translate: DVec3,
 }
 
 impl Default for Transform {
     fn default() -> Self {
         Transform {
-            scale: Vec3::ONE,
+            scale: DVec3::ONE,
             rotate: None,
-            translate: Vec3::ZERO,
+            translate: DVec3::ZERO,
         }
     }
 }
 
 impl Transform {
     /// The matrix `T * R * S`.
-    pub fn matrix(&self) -> glam::Affine3A {
+    pub fn matrix(&self) -> DAffine3 {
         let r = match self.rotate {
-            Some((axis, deg)) => glam::Quat::from_axis_angle(axis.normalize(), deg.to_radians()),
-            None => glam::Quat::IDENTITY,
+            Some((axis, deg)) => glam::DQuat::from_axis_angle(axis.normalize(), deg.to_radians()),
+            None => glam::DQuat::IDENTITY,
         };
-        glam::Affine3A::from_scale_rotation_translation(self.scale, r, self.translate)
+        DAffine3::from_scale_rotation_translation(self.scale, r, self.translate)
     }
 }
 
@@ -550,8 +684,9 @@ impl Transform {
 pub struct MeshData {
     /// Name for messages.
     pub name: String,
-    /// Vertex positions.
-    pub positions: Vec<Vec3>,
+    /// Vertex positions, in f64 so that coordinates far from the origin
+    /// keep their precision until the scene is rebased.
+    pub positions: Vec<DVec3>,
     /// Triangles.
     pub indices: Vec<[u32; 3]>,
     /// Material per triangle, indexing `materials`.
@@ -564,6 +699,12 @@ pub struct MeshData {
     /// Vertex normals of each triangle's corners (any length; zero = none):
     /// empty, or one entry per triangle.
     pub normals: Vec<[Vec3; 3]>,
+    /// Things in the file the loader read past, one line each, with the
+    /// file and line: the scene's warnings once the mesh is placed.
+    pub warnings: Vec<String>,
+    /// The files it was read from (the mesh file, its material libraries):
+    /// the scene's [`Scene::mesh_files`] once placed.
+    pub files: Vec<PathBuf>,
 }
 
 impl MeshData {
@@ -575,7 +716,9 @@ impl MeshData {
     pub fn vertex_normals(&self) -> Vec<[Vec3; 3]> {
         let mut sum = vec![Vec3::ZERO; self.positions.len()];
         for t in &self.indices {
-            let p = t.map(|i| self.positions[i as usize]);
+            // relative to the first corner, so a far-away mesh loses nothing
+            let p =
+                t.map(|i| (self.positions[i as usize] - self.positions[t[0] as usize]).as_vec3());
             let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
             if !n.is_finite() || n == Vec3::ZERO {
                 continue;
@@ -597,12 +740,39 @@ impl MeshData {
     }
 }
 
-/// Accumulates meshes into a [`Scene`], dropping triangles no backend should see.
+/// A mesh placed in world space, waiting for the scene's render origin.
+#[derive(Debug)]
+struct Placed {
+    /// The mesh with world positions (f64), world normals and front-facing
+    /// winding.
+    mesh: MeshData,
+    /// Index of its first material in the scene's list.
+    base_material: u32,
+    /// Its line in the scene file.
+    line: Option<usize>,
+}
+
+/// Accumulates meshes, spheres, point lights and the camera in world space
+/// (f64) and builds a [`Scene`] rebased to [`render_origin`], dropping
+/// triangles no backend should see.
 #[derive(Debug)]
 pub struct SceneBuilder {
     scene: Scene,
     /// [`MAX_TRIANGLES`], lowered by unit tests.
     max_triangles: u64,
+    /// Meshes in world space, in order.
+    placed: Vec<Placed>,
+    /// Triangles and vertices in `placed`.
+    counts: (u64, u64),
+    /// Spheres' world centres, radii and material indices.
+    spheres: Vec<(DVec3, f32, u32)>,
+    /// Point lights and their world positions.
+    point_lights: Vec<(DVec3, PointLight)>,
+    /// The camera, unless the scene is to be framed.
+    camera: Option<WorldCamera>,
+    /// Light a scene in which nothing emits with a uniform white
+    /// environment, with a note (a bare mesh), instead of warning.
+    light_if_dark: bool,
 }
 
 impl SceneBuilder {
@@ -611,6 +781,7 @@ impl SceneBuilder {
         SceneBuilder {
             scene: Scene {
                 source: source.to_path_buf(),
+                mesh_files: Vec::new(),
                 positions: Vec::new(),
                 indices: Vec::new(),
                 normals: Vec::new(),
@@ -626,7 +797,13 @@ impl SceneBuilder {
                 environment_map: None,
                 point_lights: Vec::new(),
                 directional_lights: Vec::new(),
-                camera: Scene::framing_camera(&Bounds::empty()),
+                camera: CameraDesc {
+                    origin: Vec3::Z,
+                    target: Vec3::ZERO,
+                    up: Vec3::Y,
+                    fov_y: 39.3,
+                },
+                world_origin: DVec3::ZERO,
                 lens: ThinLens::PINHOLE,
                 focal_pixels: None,
                 resolution: [512, 512],
@@ -635,14 +812,21 @@ impl SceneBuilder {
                 warnings: Vec::new(),
             },
             max_triangles: MAX_TRIANGLES,
+            placed: Vec::new(),
+            counts: (0, 0),
+            spheres: Vec::new(),
+            point_lights: Vec::new(),
+            camera: None,
+            light_if_dark: false,
         }
     }
 
     /// Add a mesh placed by `transform`. Triangles whose corners become
     /// non-finite or leave [`MAX_COORDINATE`] are dropped with one warning
-    /// naming the mesh; zero-area triangles are dropped with a note. For
-    /// meshes built in code (tests, parity scenes); loaders use
-    /// [`SceneBuilder::add_mesh_from`], which also enforces the scene limits.
+    /// naming the mesh; zero-area triangles are dropped with a note (both
+    /// when the scene is built). For meshes built in code (tests, parity
+    /// scenes); loaders use [`SceneBuilder::add_mesh_from`], which also
+    /// enforces the scene limits.
     pub fn add_mesh(&mut self, mesh: MeshData, transform: &Transform) {
         self.place(mesh, transform.matrix(), None);
     }
@@ -662,17 +846,18 @@ impl SceneBuilder {
     }
 
     /// [`SceneBuilder::add_mesh_from`] with any affine placement (a scene
-    /// format's matrix): normals go through the inverse transpose, and a
-    /// mirroring matrix (negative determinant) reverses the winding.
+    /// format's matrix, composed in f64): normals go through the inverse
+    /// transpose, and a mirroring matrix (negative determinant) reverses the
+    /// winding.
     pub fn add_mesh_matrix(
         &mut self,
         mesh: MeshData,
-        matrix: glam::Affine3A,
+        matrix: DAffine3,
         line: Option<usize>,
     ) -> Result<()> {
         let s = &self.scene;
         let fail = |msg: String| Err(Error::input(&s.source, line, msg));
-        let tris = s.indices.len() as u64 + mesh.indices.len() as u64;
+        let tris = self.counts.0 + mesh.indices.len() as u64;
         if tris > self.max_triangles {
             return fail(format!(
                 "mesh `{}` ({} triangles) would take the scene to {tris} triangles (at most {})",
@@ -681,7 +866,7 @@ impl SceneBuilder {
                 self.max_triangles
             ));
         }
-        let verts = s.positions.len() as u64 + mesh.positions.len() as u64;
+        let verts = self.counts.1 + mesh.positions.len() as u64;
         if verts > MAX_VERTICES {
             return fail(format!(
                 "mesh `{}` ({} vertices) would take the scene to {verts} vertices (at most {MAX_VERTICES})",
@@ -720,15 +905,69 @@ impl SceneBuilder {
         Ok(())
     }
 
-    /// Place `mesh` and report what was dropped.
-    fn place(&mut self, mesh: MeshData, m: glam::Affine3A, line: Option<usize>) {
+    /// Place `mesh` in world space: positions through `m` (f64), normals
+    /// through its inverse transpose, winding reversed by a mirror.
+    fn place(&mut self, mut mesh: MeshData, m: DAffine3, line: Option<usize>) {
         let s = &mut self.scene;
-        let flip = m.matrix3.determinant() < 0.0;
+        s.warnings.append(&mut mesh.warnings);
+        for f in mesh.files.drain(..) {
+            if !s.mesh_files.contains(&f) {
+                s.mesh_files.push(f);
+            }
+        }
         let base_material = s.materials.len() as u32;
-        s.materials.extend(mesh.materials);
+        s.materials.append(&mut mesh.materials);
+        for p in &mut mesh.positions {
+            *p = m.transform_point3(*p);
+        }
+        let normal_matrix = m.matrix3.inverse().transpose();
+        for corners in &mut mesh.normals {
+            *corners = corners.map(|n| {
+                // a zero, non-finite or degenerate normal shades flat; a
+                // unit one (to a few ulps) is kept as it is, so that a
+                // scene written out with its normals reads back to the
+                // same bits
+                let w = (normal_matrix * n.as_dvec3()).as_vec3();
+                let w = if (w.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON {
+                    w
+                } else {
+                    w.normalize_or_zero()
+                };
+                if w.is_finite() { w } else { Vec3::ZERO }
+            });
+        }
+        if m.matrix3.determinant() < 0.0 {
+            for t in &mut mesh.indices {
+                t.swap(1, 2);
+            }
+            for uv in &mut mesh.uvs {
+                uv.swap(1, 2);
+            }
+            for ns in &mut mesh.normals {
+                ns.swap(1, 2);
+            }
+        }
+        self.counts.0 += mesh.indices.len() as u64;
+        self.counts.1 += mesh.positions.len() as u64;
+        self.placed.push(Placed {
+            mesh,
+            base_material,
+            line,
+        });
+    }
+
+    /// Move a placed mesh into the scene's arrays, in render space (world
+    /// minus `origin`, rounded to f32), and report what was dropped.
+    fn rebase(&mut self, placed: Placed, origin: DVec3) {
+        let Placed {
+            mesh,
+            base_material,
+            line,
+        } = placed;
+        let s = &mut self.scene;
         let base_vertex = s.positions.len() as u32;
         s.positions
-            .extend(mesh.positions.iter().map(|&p| m.transform_point3(p)));
+            .extend(mesh.positions.iter().map(|&p| (p - origin).as_vec3()));
         let start = s.indices.len() as u32;
         // per-corner attributes line up with the triangles once any mesh has them
         let keep_uv = !mesh.uvs.is_empty() || !s.tri_uv.is_empty();
@@ -740,31 +979,9 @@ impl SceneBuilder {
             s.tri_shading_normals
                 .resize(s.indices.len(), [Vec3::ZERO; 3]);
         }
-        let normal_matrix = m.matrix3.inverse().transpose();
         let (mut out_of_range, mut degenerate, mut lost_emitters) = (0usize, 0usize, 0usize);
         for (k, (t, &mat)) in mesh.indices.iter().zip(&mesh.tri_material).enumerate() {
-            let mut idx = t.map(|i| i + base_vertex);
-            let mut uv = mesh.uvs.get(k).copied().unwrap_or([Vec2::ZERO; 3]);
-            let mut ns = mesh.normals.get(k).map_or([Vec3::ZERO; 3], |c| {
-                c.map(|n| {
-                    // a zero, non-finite or degenerate normal shades flat; a
-                    // unit one (to a few ulps) is kept as it is, so that a
-                    // scene written out with its normals reads back to the
-                    // same bits
-                    let w = Vec3::from(normal_matrix * glam::Vec3A::from(n));
-                    let w = if (w.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON {
-                        w
-                    } else {
-                        w.normalize_or_zero()
-                    };
-                    if w.is_finite() { w } else { Vec3::ZERO }
-                })
-            });
-            if flip {
-                idx.swap(1, 2);
-                uv.swap(1, 2);
-                ns.swap(1, 2);
-            }
+            let idx = t.map(|i| i + base_vertex);
             let p = idx.map(|i| s.positions[i as usize]);
             if !p.iter().all(|q| q.abs().max_element() <= MAX_COORDINATE) {
                 // NaN and infinities fail the comparison too
@@ -787,12 +1004,14 @@ impl SceneBuilder {
             s.needle.push(needle_factor(p));
             s.tri_material.push(base_material + mat);
             if keep_uv {
-                s.tri_uv.push(uv);
+                s.tri_uv
+                    .push(mesh.uvs.get(k).copied().unwrap_or([Vec2::ZERO; 3]));
             }
             if keep_normals {
                 // a corner whose normal faces away from the triangle's front
                 // is flipped, so each interpolated normal is on the front
                 // side at that corner
+                let ns = mesh.normals.get(k).copied().unwrap_or([Vec3::ZERO; 3]);
                 s.tri_shading_normals
                     .push(ns.map(|c| if c.dot(n) < 0.0 { -c } else { c }));
             }
@@ -814,7 +1033,7 @@ impl SceneBuilder {
         }
         if lost_emitters > 0 {
             s.warnings.push(format!(
-                "{at}: mesh `{name}`: {lost_emitters} emitting triangles have zero area in f32 after the transform (too small for their distance from the origin?), so the light they made is gone"
+                "{at}: mesh `{name}`: {lost_emitters} emitting triangles have zero area in f32 after the transform (too small for their distance from the camera?), so the light they made is gone"
             ));
         }
         let end = s.indices.len() as u32;
@@ -825,48 +1044,129 @@ impl SceneBuilder {
         });
     }
 
-    /// Add an analytic sphere with its own material, which the scene file
-    /// describes at `line`. A textured material is fine: spheres have their
-    /// own texture coordinates.
+    /// Add an analytic sphere (world centre, radius) with its own material,
+    /// which the scene file describes at `line`. A textured material is
+    /// fine: spheres have their own texture coordinates.
     pub fn add_sphere(
         &mut self,
-        sphere: Sphere,
+        center: DVec3,
+        radius: f32,
         material: Material,
         line: Option<usize>,
     ) -> Result<()> {
         let s = &mut self.scene;
-        if s.spheres.len() as u64 >= self.max_triangles {
+        if self.spheres.len() as u64 >= self.max_triangles {
             return Err(Error::input(
                 &s.source,
                 line,
                 format!("more than {} spheres", self.max_triangles),
             ));
         }
-        s.sphere_material.push(s.materials.len() as u32);
+        self.spheres
+            .push((center, radius, s.materials.len() as u32));
         s.materials.push(material);
-        s.spheres.push(sphere);
         Ok(())
+    }
+
+    /// Add a point light at world `position` (its own position is replaced
+    /// by the rebased one).
+    pub fn add_point_light(&mut self, position: DVec3, light: PointLight) {
+        self.point_lights.push((position, light));
+    }
+
+    /// Set the camera, in world space. Without one the scene is framed from
+    /// its bounds, with a note.
+    pub fn set_camera(&mut self, camera: WorldCamera) {
+        self.camera = Some(camera);
+    }
+
+    /// The camera set so far.
+    pub fn camera(&self) -> Option<&WorldCamera> {
+        self.camera.as_ref()
     }
 
     /// Triangles placed so far.
     pub fn triangle_count(&self) -> u64 {
-        self.scene.indices.len() as u64
+        self.counts.0
     }
 
     /// Vertices placed so far.
     pub fn vertex_count(&self) -> u64 {
-        self.scene.positions.len() as u64
+        self.counts.1
     }
 
-    /// Mutable access to the scene being built (camera, film, defaults, lights).
+    /// World bounds of the vertices of placed triangles (those finite and
+    /// within [`MAX_COORDINATE`]) and of the spheres: `(min, max)`, with
+    /// `min > max` when there are none.
+    pub fn world_bounds(&self) -> (DVec3, DVec3) {
+        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        let mut add = |p: DVec3| {
+            if p.is_finite() && p.abs().max_element() <= MAX_COORDINATE as f64 {
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        };
+        for placed in &self.placed {
+            let m = &placed.mesh;
+            for t in &m.indices {
+                for &i in t {
+                    add(m.positions[i as usize]);
+                }
+            }
+        }
+        for &(c, r, _) in &self.spheres {
+            add(c - r as f64);
+            add(c + r as f64);
+        }
+        (lo, hi)
+    }
+
+    /// Mutable access to the scene being built (film, defaults, lens,
+    /// lights without a position).
     pub fn scene_mut(&mut self) -> &mut Scene {
         &mut self.scene
     }
 
-    /// Finish. A scene in which nothing emits (no emitting triangle or
-    /// sphere, no point, directional or environment light) renders black:
-    /// it gets a warning saying so.
+    /// Finish: frame the scene if no camera was set, rebase everything to
+    /// [`render_origin`] and convert it to f32. A scene in which nothing
+    /// emits (no emitting triangle or sphere, no point, directional or
+    /// environment light) renders black: it gets a warning saying so.
     pub fn build(mut self) -> Scene {
+        let camera = match self.camera {
+            Some(c) => c,
+            None => {
+                let (lo, hi) = self.world_bounds();
+                self.scene
+                    .notes
+                    .push("no camera: framed automatically from the scene bounds".to_string());
+                WorldCamera::framing(lo, hi)
+            }
+        };
+        let origin = render_origin(&camera);
+        self.scene.world_origin = origin;
+        self.scene.camera = CameraDesc {
+            origin: (camera.origin - origin).as_vec3(),
+            target: (camera.target - origin).as_vec3(),
+            up: camera.up,
+            fov_y: camera.fov_y,
+        };
+        if let Some(f) = self.scene.focal_pixels {
+            self.scene.set_focal_pixels(f);
+        }
+        for placed in std::mem::take(&mut self.placed) {
+            self.rebase(placed, origin);
+        }
+        for (c, radius, m) in std::mem::take(&mut self.spheres) {
+            self.scene.spheres.push(Sphere {
+                center: (c - origin).as_vec3(),
+                radius,
+            });
+            self.scene.sphere_material.push(m);
+        }
+        for (p, mut light) in std::mem::take(&mut self.point_lights) {
+            light.position = (p - origin).as_vec3();
+            self.scene.point_lights.push(light);
+        }
         let s = &self.scene;
         let emits = |m: u32| s.materials[m as usize].emission.max_element() > 0.0;
         let lit = s.tri_material.iter().any(|&m| emits(m))
@@ -879,7 +1179,13 @@ impl SceneBuilder {
                 .any(|l| l.irradiance().max_element() > 0.0)
             || s.environment.is_some_and(|e| e.max_element() > 0.0)
             || s.environment_map.is_some();
-        if !lit {
+        if !lit && self.light_if_dark {
+            self.scene.environment = Some(Vec3::ONE);
+            self.scene.notes.push(
+                "nothing emits light: lighting the scene with a uniform white environment"
+                    .to_string(),
+            );
+        } else if !lit {
             let file = crate::error::one_line(&s.source.display().to_string()).into_owned();
             self.scene.warnings.push(format!(
                 "{file}: nothing emits light (no emitting surface, point, directional or environment light): the image will be black"
@@ -896,7 +1202,7 @@ mod tests {
     fn triangle(name: &str) -> MeshData {
         MeshData {
             name: name.to_string(),
-            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            positions: vec![DVec3::ZERO, DVec3::X, DVec3::Y],
             indices: vec![[0, 1, 2]],
             tri_material: vec![0],
             materials: vec![Material::default()],
@@ -952,15 +1258,21 @@ mod tests {
         b.add_mesh(mesh, &Transform::default());
         // corners at exactly MAX_COORDINATE are inside the range
         let far = Transform {
-            scale: Vec3::splat(MAX_COORDINATE),
+            scale: DVec3::splat(MAX_COORDINATE as f64),
             ..Transform::default()
         };
         b.add_mesh(triangle("edge"), &far);
         let beyond = Transform {
-            translate: Vec3::new(0.0, -2.0 * MAX_COORDINATE, 0.0),
+            translate: DVec3::new(0.0, -2.0 * MAX_COORDINATE as f64, 0.0),
             ..Transform::default()
         };
         b.add_mesh(triangle("beyond"), &beyond);
+        b.set_camera(WorldCamera {
+            origin: DVec3::new(0.0, 0.0, 5.0),
+            target: DVec3::ZERO,
+            up: Vec3::Y,
+            fov_y: 40.0,
+        });
         let s = b.build();
         assert_eq!(s.triangle_count(), 2);
         assert_eq!(
@@ -975,5 +1287,75 @@ mod tests {
             s.notes,
             ["s.toml: mesh `m`: dropped 1 degenerate (zero-area) triangles"]
         );
+    }
+
+    fn camera_at(origin: DVec3, target: DVec3) -> WorldCamera {
+        WorldCamera {
+            origin,
+            target,
+            up: Vec3::Y,
+            fov_y: 40.0,
+        }
+    }
+
+    #[test]
+    fn scenes_are_rebased_only_when_the_camera_is_far_from_the_origin() {
+        // the Cornell box's own camera: nothing moves
+        let near = camera_at(DVec3::new(0.0, 1.0, 3.9), DVec3::new(0.0, 1.0, 0.0));
+        assert_eq!(render_origin(&near), DVec3::ZERO);
+        // the same view at scale 1e-3, 1e4 away: rebased to the camera's
+        // position on a power-of-two grid about 8 times the view distance
+        let o = DVec3::splat(1e4);
+        let far = camera_at(o + 1e-3 * near.origin, o + 1e-3 * near.target);
+        let r = render_origin(&far);
+        let step = 1.0 / 32.0;
+        assert!((r - far.origin).abs().max_element() <= step / 2.0, "{r}");
+        assert_eq!(r % step, DVec3::ZERO, "{r} is on the grid");
+        // a degenerate view keeps the world as it is
+        assert_eq!(render_origin(&camera_at(o, o)), DVec3::ZERO);
+        // a unit view distance a rounding error either side of 1 (a Mitsuba
+        // `to_world` camera) gives the same grid
+        for l in [1.0 - 1e-7, 1.0, 1.0 + 1e-7] {
+            let c = camera_at(DVec3::new(0.0, 2.2, 5.0), DVec3::new(0.0, 2.2, 5.0 - l));
+            assert_eq!(render_origin(&c), DVec3::new(0.0, 0.0, 8.0), "{l}");
+        }
+    }
+
+    #[test]
+    fn a_rebased_scene_keeps_its_precision_and_its_shape() {
+        let o = DVec3::new(1e6, -1e6, 1e6);
+        let mut b = SceneBuilder::new(Path::new("s.toml"));
+        let mut mesh = triangle("t");
+        let s = 1e-4;
+        mesh.positions = vec![o, o + DVec3::new(s, 0.0, 0.0), o + DVec3::new(0.0, s, 0.0)];
+        b.add_mesh(mesh, &Transform::default());
+        b.add_point_light(
+            o + DVec3::new(0.0, 0.0, s),
+            PointLight::new(Vec3::ZERO, Vec3::ONE),
+        );
+        b.set_camera(camera_at(o + DVec3::new(0.0, 0.0, 4.0 * s), o));
+        let scene = b.build();
+        // in f32 at 1e6 the triangle would have collapsed (ulp 0.0625)
+        assert_eq!(scene.triangle_count(), 1, "{:?}", scene.notes);
+        let [p0, p1, p2] = scene.triangle(0);
+        let back = |p: Vec3| p.as_dvec3() + scene.world_origin;
+        for (p, want) in [(p0, o), (p1, o + DVec3::X * s), (p2, o + DVec3::Y * s)] {
+            assert!((back(p) - want).length() < 1e-6 * s, "{p} -> {}", back(p));
+        }
+        let light = scene.point_lights[0].position;
+        assert!((back(light) - (o + DVec3::Z * s)).length() < 1e-6 * s);
+        let cam = scene.camera.origin;
+        assert!((back(cam) - (o + DVec3::Z * 4.0 * s)).length() < 1e-6 * s);
+    }
+
+    #[test]
+    fn a_flat_mesh_is_framed_face_on() {
+        let floor = WorldCamera::framing(DVec3::new(-1.0, 0.0, -1.0), DVec3::new(1.0, 0.0, 1.0));
+        assert_eq!(floor.target, DVec3::ZERO);
+        assert!(floor.origin.y > 0.0 && floor.origin.x == 0.0 && floor.origin.z == 0.0);
+        let wall = WorldCamera::framing(DVec3::new(0.0, -1.0, -1.0), DVec3::new(0.0, 1.0, 1.0));
+        assert!(wall.origin.x > 0.0 && wall.origin.y == 0.0);
+        let boxy = WorldCamera::framing(-DVec3::ONE, DVec3::ONE);
+        assert!(boxy.origin.z > 0.0 && boxy.origin.x == 0.0 && boxy.origin.y == 0.0);
     }
 }

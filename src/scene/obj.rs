@@ -18,11 +18,13 @@
 //! not rendered). tobj then parses that text, so its view and the checks
 //! are the same.
 
-use super::limits::{MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
-use super::{Material, MeshData, Scene};
+use super::limits::{
+    MAX_COORDINATE, MAX_MESH_FILE_BYTES, MAX_SCENE_FILE_BYTES, MAX_TRIANGLES, MAX_VERTICES,
+};
+use super::{Content, Material, MeshData, Scene, read_bounded};
 use crate::bsdf::{Bsdf, Diffuse, Glass, Mirror, Plastic};
 use crate::error::{Error, Result};
-use crate::math::{Vec2, Vec3};
+use crate::math::{DVec3, Vec2, Vec3};
 use crate::texture::ImageTexture;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -30,11 +32,14 @@ use std::sync::Arc;
 
 /// Read `path` as one mesh (all its objects merged), with its materials.
 pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = read_bounded(path, MAX_MESH_FILE_BYTES, Content::Text)?;
     let obj = prepare(path, &String::from_utf8_lossy(&bytes), MAX_TRIANGLES)?;
     drop(bytes);
+    let mut warnings = obj.warnings;
     // every library the file names, checked and cleaned before tobj asks
     let mut libs: HashMap<PathBuf, String> = HashMap::new();
+    // the line of each material's `newmtl`, in the first library naming it
+    let mut newmtl_lines: HashMap<String, (PathBuf, usize)> = HashMap::new();
     for (name, line) in &obj.mtllibs {
         let lib = path.parent().unwrap_or(Path::new("")).join(name);
         if libs.contains_key(name) {
@@ -50,11 +55,15 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
                 ),
             ));
         }
-        let bytes = std::fs::read(&lib).map_err(|e| Error::io(&lib, e))?;
-        libs.insert(
-            name.clone(),
-            prepare_mtl(&lib, &String::from_utf8_lossy(&bytes))?,
-        );
+        let bytes = read_bounded(&lib, MAX_SCENE_FILE_BYTES, Content::Text)?;
+        let prepared = prepare_mtl(&lib, &String::from_utf8_lossy(&bytes))?;
+        for (material, line) in prepared.materials {
+            newmtl_lines
+                .entry(material)
+                .or_insert_with(|| (lib.clone(), line));
+        }
+        warnings.extend(prepared.warnings);
+        libs.insert(name.clone(), prepared.text);
     }
     let options = tobj::LoadOptions {
         triangulate: true,
@@ -84,6 +93,14 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default(),
+        warnings,
+        files: std::iter::once(path.to_path_buf())
+            .chain(
+                obj.mtllibs
+                    .iter()
+                    .map(|(name, _)| path.parent().unwrap_or(Path::new("")).join(name)),
+            )
+            .collect(),
         ..MeshData::default()
     };
     let lib_file = obj.mtllibs.first().map_or(path.to_path_buf(), |(name, _)| {
@@ -91,8 +108,12 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
     });
     let mut textures: HashMap<String, Arc<ImageTexture>> = HashMap::new();
     for m in &tobj_materials {
+        let (file, line) = match newmtl_lines.get(&m.name) {
+            Some((file, line)) => (file.as_path(), Some(*line)),
+            None => (lib_file.as_path(), None),
+        };
         mesh.materials
-            .push(convert_material(m, &lib_file, &mut textures)?);
+            .push(convert_material(m, file, line, &mut textures)?);
     }
     let default_material = mesh.materials.len() as u32;
     mesh.materials.push(Material::default());
@@ -100,7 +121,7 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
         let m = &model.mesh;
         let base = mesh.positions.len() as u32;
         for p in m.positions.chunks_exact(3) {
-            mesh.positions.push(Vec3::new(p[0], p[1], p[2]));
+            mesh.positions.push(DVec3::new(p[0], p[1], p[2]));
         }
         let count = (m.positions.len() / 3) as u32;
         let mat = m
@@ -124,12 +145,12 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
         let corners = m.indices.len();
         let uvs = (m.texcoord_indices.len() == corners).then(|| {
             corner_values(&m.texcoord_indices, &m.texcoords, 2, |c| {
-                Vec2::new(c[0], c[1])
+                Vec2::new(c[0] as f32, c[1] as f32)
             })
         });
         let normals = (m.normal_indices.len() == corners).then(|| {
             corner_values(&m.normal_indices, &m.normals, 3, |c| {
-                Vec3::new(c[0], c[1], c[2])
+                Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32)
             })
         });
         if let Some(uvs) = uvs.flatten() {
@@ -156,9 +177,9 @@ pub fn load_obj_mesh(path: &Path) -> Result<MeshData> {
 /// is not finite.
 fn corner_values<T: Copy>(
     indices: &[u32],
-    values: &[f32],
+    values: &[f64],
     width: usize,
-    make: impl Fn(&[f32]) -> T,
+    make: impl Fn(&[f64]) -> T,
 ) -> Option<Vec<[T; 3]>> {
     let get = |i: u32| {
         let c = values.get(i as usize * width..(i as usize + 1) * width)?;
@@ -194,12 +215,13 @@ pub fn ns_to_alpha(ns: f32) -> f32 {
 fn convert_material(
     m: &tobj::Material,
     file: &Path,
+    line: Option<usize>,
     textures: &mut HashMap<String, Arc<ImageTexture>>,
 ) -> Result<Material> {
-    let fail = |msg: String| Error::input(file, None, format!("material `{}`: {msg}", m.name));
+    let fail = |msg: String| Error::input(file, line, format!("material `{}`: {msg}", m.name));
     // prepare_mtl has checked each colour line; this guards the defaults
-    let colour = |name: &str, c: Option<[f32; 3]>, default: Vec3| -> Result<Vec3> {
-        let v = c.map_or(default, Vec3::from);
+    let colour = |name: &str, c: Option<[f64; 3]>, default: Vec3| -> Result<Vec3> {
+        let v = c.map_or(default, |c| DVec3::from(c).as_vec3());
         if !v.is_finite() || v.min_element() < 0.0 {
             return Err(fail(format!(
                 "{name} must be finite and non-negative, got {v}"
@@ -214,7 +236,7 @@ fn convert_material(
         )));
     }
     let ks = colour("Ks", m.specular, Vec3::ZERO)?;
-    let ior = m.optical_density.unwrap_or(1.5);
+    let ior = m.optical_density.map_or(1.5, |v| v as f32);
     let bsdf = match m.illumination_model {
         Some(3) => {
             let reflectance = colour("Ks", m.specular, Vec3::ONE)?;
@@ -225,7 +247,7 @@ fn convert_material(
             ..Glass::default()
         }),
         Some(2) if ks.max_element() > 0.0 && m.shininess.is_some() => {
-            let alpha = ns_to_alpha(m.shininess.unwrap_or(0.0));
+            let alpha = ns_to_alpha(m.shininess.unwrap_or(0.0) as f32);
             Bsdf::Plastic(
                 Plastic::new(albedo, ior, alpha)
                     .map_err(|e| fail(format!("as plastic (illum 2 with Ks and Ns): {e}")))?,
@@ -241,9 +263,9 @@ fn convert_material(
                 Some(t) => t.clone(),
                 None => {
                     let full = file.parent().unwrap_or(Path::new("")).join(name);
-                    if !full.is_file() {
+                    if let Some(why) = super::not_a_file(&full) {
                         return Err(fail(format!(
-                            "map_Kd `{name}` not found (expected a .png or .exr next to the MTL file)"
+                            "map_Kd `{name}` {why} (expected a .png or .exr next to the MTL file)"
                         )));
                     }
                     let t = Arc::new(ImageTexture::load(&full)?);
@@ -280,11 +302,60 @@ struct PreparedObj {
     text: String,
     /// The material libraries named, as written, with their lines.
     mtllibs: Vec<(PathBuf, usize)>,
+    /// Statements read past, one line for the file.
+    warnings: Vec<String>,
 }
 
+/// Every statement of the OBJ format (Wavefront's "Object Files (.obj)"
+/// specification, Appendix B1 of the Advanced Visualizer manual): those
+/// not rendered (free-form curves and surfaces, display attributes) are
+/// read past with a warning; anything else means the file is not OBJ.
+const OBJ_STATEMENTS: [&str; 40] = [
+    "v",
+    "vt",
+    "vn",
+    "vp",
+    "f",
+    "l",
+    "p",
+    "o",
+    "g",
+    "s",
+    "mg",
+    "usemtl",
+    "mtllib",
+    "cstype",
+    "deg",
+    "bmat",
+    "step",
+    "curv",
+    "curv2",
+    "surf",
+    "parm",
+    "trim",
+    "hole",
+    "scrv",
+    "sp",
+    "end",
+    "con",
+    "maplib",
+    "usemap",
+    "lod",
+    "ctech",
+    "stech",
+    "shadow_obj",
+    "trace_obj",
+    "bevel",
+    "c_interp",
+    "d_interp",
+    "call",
+    "csh",
+    "fo",
+];
+
 /// Parse `s` as a number, or say which `what` at `line` could not be.
-fn number(path: &Path, line: usize, what: &str, s: &str) -> Result<f32> {
-    s.parse::<f32>().map_err(|_| {
+fn number(path: &Path, line: usize, what: &str, s: &str) -> Result<f64> {
+    s.parse::<f64>().map_err(|_| {
         Error::input(
             path,
             Some(line),
@@ -336,6 +407,7 @@ fn prepare(path: &Path, text: &str, max_triangles: u64) -> Result<PreparedObj> {
     // triangles after fan triangulation: a face of n vertices makes n - 2
     let mut triangles = 0u64;
     let mut mtllibs = Vec::new();
+    let (mut unknown, mut first_unknown, mut read_past) = (0usize, None, None);
     let mut out = String::with_capacity(text.len());
     for (n, &(key, rest)) in lines.iter().enumerate() {
         let line_no = n + 1;
@@ -349,11 +421,11 @@ fn prepare(path: &Path, text: &str, max_triangles: u64) -> Result<PreparedObj> {
                         values.len()
                     ));
                 }
-                let mut p = [0f32; 3];
+                let mut p = [0f64; 3];
                 for (c, s) in p.iter_mut().zip(&values) {
                     *c = number(path, line_no, "vertex coordinate", s)?;
                 }
-                // tobj divides by w, in f32, as here
+                // tobj divides by w, in f64, as here
                 if values.len() == 4 {
                     let w = number(path, line_no, "vertex weight w", values[3])?;
                     if !w.is_finite() || w == 0.0 {
@@ -377,7 +449,7 @@ fn prepare(path: &Path, text: &str, max_triangles: u64) -> Result<PreparedObj> {
                             "vertex coordinate `{s}`{over_w} is not finite (expected a finite number)"
                         ));
                     }
-                    if c.abs() > MAX_COORDINATE {
+                    if c.abs() > MAX_COORDINATE as f64 {
                         return err(format!(
                             "vertex coordinate `{s}`{over_w} is beyond +-{MAX_COORDINATE:e} (expected a number within Embree's range)"
                         ));
@@ -388,7 +460,7 @@ fn prepare(path: &Path, text: &str, max_triangles: u64) -> Result<PreparedObj> {
                     out.push_str("v ");
                     out.push_str(rest);
                 } else {
-                    // `{}` prints the shortest text that reads back to the same f32
+                    // `{}` prints the shortest text that reads back to the same f64
                     out.push_str(&format!("v {} {} {}", p[0], p[1], p[2]));
                 }
             }
@@ -475,28 +547,108 @@ fn prepare(path: &Path, text: &str, max_triangles: u64) -> Result<PreparedObj> {
                 out.push_str(rest);
             }
             // `s`, `#`, blank lines and statements tobj ignores
-            _ => {}
+            "" | "s" => {}
+            _ if OBJ_STATEMENTS.contains(&key) => {
+                if read_past.is_none() {
+                    read_past = Some((line_no, key));
+                }
+            }
+            _ => {
+                unknown += 1;
+                if first_unknown.is_none() {
+                    first_unknown = Some((line_no, key));
+                }
+            }
         }
         out.push('\n');
     }
     check_reach(&mut reach, &seen)?;
-    Ok(PreparedObj { text: out, mtllibs })
+    // a statement quoted in a message: its first 40 characters
+    let token = |t: &str| {
+        let t: String = t.chars().take(40).collect();
+        crate::error::one_line(&t).into_owned()
+    };
+    let mut warnings = Vec::new();
+    if let Some((line, key)) = first_unknown {
+        let key = token(key);
+        if triangles == 0 {
+            return Err(Error::input(
+                path,
+                Some(line),
+                format!(
+                    "`{key}` is not an OBJ statement, and the file has no faces: not an OBJ file"
+                ),
+            ));
+        }
+        warnings.push(format!(
+            "{}: {unknown} lines start with something that is not an OBJ statement (read past)",
+            crate::error::Location {
+                file: path.to_path_buf(),
+                line: Some(line),
+            }
+        ));
+    }
+    if let Some((line, key)) = read_past {
+        warnings.push(format!(
+            "{}: `{key}` and other free-form or display statements are not rendered (read past)",
+            crate::error::Location {
+                file: path.to_path_buf(),
+                line: Some(line),
+            }
+        ));
+    }
+    if triangles == 0 {
+        warnings.push(format!(
+            "{}: no faces: the mesh adds nothing to the scene",
+            crate::error::Location {
+                file: path.to_path_buf(),
+                line: None,
+            }
+        ));
+    }
+    Ok(PreparedObj {
+        text: out,
+        mtllibs,
+        warnings,
+    })
 }
 
 /// Check a material library statement by statement, as tobj will read it
 /// (tobj 4.0 panics on a colour line with fewer than three values, found by
 /// `tests/fuzz_loaders.rs`), and rewrite it the same way as [`prepare`].
 /// `Kd` must lie in `[0, 1]` and `Ke` be finite and non-negative.
-fn prepare_mtl(lib: &Path, text: &str) -> Result<String> {
+fn prepare_mtl(lib: &Path, text: &str) -> Result<PreparedMtl> {
     let mut out = String::with_capacity(text.len());
+    let mut materials = Vec::new();
+    // keys read past, in order of first use, with that line
+    let mut read_past: Vec<(&str, usize)> = Vec::new();
     for (n, raw) in text.lines().enumerate() {
         let err = |msg: String| Err(Error::input(lib, Some(n + 1), msg));
         let (key, rest) = split_statement(raw);
         let first = rest.split_whitespace().next();
+        let value = first.and_then(|v| v.parse::<f32>().ok());
+        let ignored = match key {
+            "map_Ka" | "map_Ks" | "map_Bump" | "map_bump" | "bump" | "map_Ns" | "map_ns"
+            | "map_NS" | "map_d" | "disp" | "decal" | "refl" | "norm" | "map_Pr" | "map_Pm"
+            | "Pr" | "Pm" | "Ps" | "Pc" | "Pcr" | "aniso" | "anisor" | "sharpness" => true,
+            // opacity other than full and transmission filters other than
+            // white would change the surface
+            "d" => value != Some(1.0),
+            "Tr" => value != Some(0.0),
+            "Tf" => rest
+                .split_whitespace()
+                .take(3)
+                .any(|v| v.parse::<f32>().ok() != Some(1.0)),
+            _ => false,
+        };
+        if ignored && !read_past.iter().any(|(k, _)| *k == key) {
+            read_past.push((key, n + 1));
+        }
         match key {
             "newmtl" if rest.is_empty() => {
                 return err("expected a material name after `newmtl`".into());
             }
+            "newmtl" => materials.push((rest.to_string(), n + 1)),
             "Ka" | "Kd" | "Ks" | "Ke" | "Tf" => {
                 let values: Vec<&str> = rest.split_whitespace().take(3).collect();
                 let c: Vec<f32> = values.iter().filter_map(|v| v.parse().ok()).collect();
@@ -540,7 +692,33 @@ fn prepare_mtl(lib: &Path, text: &str) -> Result<String> {
         }
         out.push('\n');
     }
-    Ok(out)
+    let warnings = read_past
+        .iter()
+        .map(|(key, line)| {
+            format!(
+                "{}: `{key}` is not rendered (read past; materials use Kd, Ks, Ke, Ns, Ni, illum and map_Kd)",
+                crate::error::Location {
+                    file: lib.to_path_buf(),
+                    line: Some(*line),
+                }
+            )
+        })
+        .collect();
+    Ok(PreparedMtl {
+        text: out,
+        materials,
+        warnings,
+    })
+}
+
+/// A material library checked and rewritten for tobj.
+struct PreparedMtl {
+    /// The text tobj parses, line for line the file's.
+    text: String,
+    /// Each `newmtl` name with its line.
+    materials: Vec<(String, usize)>,
+    /// One line for each key read past (with its first line).
+    warnings: Vec<String>,
 }
 
 /// A bare `.obj` as a scene (see [`super::bare_scene`]).
@@ -593,7 +771,7 @@ mod tests {
         )
         .unwrap();
         assert_eq!(m.indices.len(), 2, "`l` is not a triangle");
-        assert_eq!(m.positions[1], Vec3::X, "w divides the vertex");
+        assert_eq!(m.positions[1], DVec3::X, "w divides the vertex");
         assert_eq!(m.materials[0].name, "red");
         assert_eq!(m.materials[0].albedo(), Some(Vec3::new(0.5, 0.0, 0.0)));
         assert_eq!(m.tri_material, [0, 0]);

@@ -27,7 +27,7 @@
 use super::limits::{MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
 use super::{Material, MeshData};
 use crate::error::{Error, Result};
-use crate::math::{Vec2, Vec3};
+use crate::math::{DVec3, Vec2, Vec3};
 use std::path::Path;
 
 /// Most corners a face may have; a larger polygon is an error (fan
@@ -403,7 +403,11 @@ fn is_index_list(name: &str) -> bool {
 
 /// Read `path` as one mesh with the default material.
 pub fn load_ply_mesh(path: &Path) -> Result<MeshData> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = super::read_bounded(
+        path,
+        super::MAX_MESH_FILE_BYTES,
+        super::Content::Magic(b"ply", "PLY"),
+    )?;
     let header = parse_header(path, &bytes)?;
     let at = |line: usize, msg: String| Error::input(path, Some(line), msg);
     let vertex = header.elements.iter().find(|e| e.name == "vertex");
@@ -530,8 +534,8 @@ pub fn load_ply_mesh(path: &Path) -> Result<MeshData> {
                         (kind, _) => body.skip(kind)?,
                     }
                 }
-                let p = Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32);
-                if !p.is_finite() || p.abs().max_element() > MAX_COORDINATE {
+                let p = DVec3::new(v[0], v[1], v[2]);
+                if !p.is_finite() || p.abs().max_element() > MAX_COORDINATE as f64 {
                     return Err(body.fail(format!(
                         "position {p} is not finite or beyond +-{MAX_COORDINATE:e}"
                     )));
@@ -600,5 +604,7 @@ pub fn load_ply_mesh(path: &Path) -> Result<MeshData> {
         materials: vec![Material::default()],
         uvs: mesh_uvs,
         normals: mesh_normals,
+        warnings: Vec::new(),
+        files: vec![path.to_path_buf()],
     })
 }

@@ -113,7 +113,7 @@ pub fn generate(
                     theta.cos(),
                     theta.sin() * phi.sin(),
                 );
-                d * (1.0 + displacement * noise.at(d))
+                (d * (1.0 + displacement * noise.at(d))).as_dvec3()
             };
             let pi = std::f32::consts::PI;
             m.positions.push(at(0.0, 0.0));
@@ -151,7 +151,7 @@ pub fn generate(
                     let x = -1.0 + 2.0 * j as f32 / n as f32;
                     let z = -1.0 + 2.0 * i as f32 / n as f32;
                     let y = displacement * noise.at(Vec3::new(x, 0.0, z));
-                    m.positions.push(Vec3::new(x, y, z));
+                    m.positions.push(Vec3::new(x, y, z).as_dvec3());
                 }
             }
             let v = |i: u32, j: u32| i * (n + 1) + j;
@@ -183,7 +183,7 @@ mod tests {
                 "{shape:?}: {count} triangles"
             );
             for t in &m.indices {
-                let p = t.map(|i| m.positions[i as usize]);
+                let p = t.map(|i| m.positions[i as usize].as_vec3());
                 let nrm = triangle_normal(p[0], p[1], p[2]).expect("no degenerate triangles");
                 let c = (p[0] + p[1] + p[2]) / 3.0;
                 let outward = match shape {

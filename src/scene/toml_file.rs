@@ -37,10 +37,9 @@
 use super::limits::{self, MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
 use super::procedural::{self, Shape};
 use super::{
-    CameraDesc, Material, MeshData, RenderDefaults, Scene, SceneBuilder, Transform, load_obj_mesh,
+    Material, MeshData, RenderDefaults, Scene, SceneBuilder, Transform, WorldCamera, load_obj_mesh,
     load_ply_mesh,
 };
-use crate::accel::Sphere;
 use crate::bsdf::{
     Bsdf, Conductor, Diffuse, Distribution, Glass, Lobe, Microfacet, Mirror, Phong, Plastic,
 };
@@ -48,7 +47,7 @@ use crate::camera::ThinLens;
 use crate::error::{Error, Result};
 use crate::integrator::Roulette;
 use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
-use crate::math::Vec3;
+use crate::math::{DVec3, Vec3};
 use crate::texture::ImageTexture;
 use serde::Deserialize;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
@@ -95,30 +94,19 @@ fn default_displacement() -> f32 {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct CameraToml {
-    origin: [f32; 3],
-    target: [f32; 3],
-    #[serde(default = "default_up")]
-    up: [f32; 3],
-    #[serde(default = "default_fov")]
-    fov_y: f32,
-    #[serde(default)]
-    aperture_radius: f32,
-    focus_distance: Option<f32>,
-    focal_pixels: Option<f32>,
-}
-
-fn default_up() -> [f32; 3] {
-    [0.0, 1.0, 0.0]
-}
-
-fn default_fov() -> f32 {
-    39.3
+    origin: Spanned<Exact<f64, 3>>,
+    target: Spanned<Exact<f64, 3>>,
+    up: Option<Spanned<Exact<f64, 3>>>,
+    fov_y: Option<Spanned<f32>>,
+    aperture_radius: Option<Spanned<f32>>,
+    focus_distance: Option<Spanned<f32>>,
+    focal_pixels: Option<Spanned<f32>>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct FilmToml {
-    resolution: Spanned<[u64; 2]>,
+    resolution: Spanned<Exact<u64, 2>>,
 }
 
 #[derive(Deserialize)]
@@ -145,8 +133,8 @@ struct MeshToml {
 #[serde(deny_unknown_fields)]
 struct TransformToml {
     scale: Option<Rgb>,
-    rotate: Option<[f32; 4]>,
-    translate: Option<[f32; 3]>,
+    rotate: Option<Exact<f64, 4>>,
+    translate: Option<Exact<f64, 3>>,
 }
 
 #[derive(Deserialize)]
@@ -200,7 +188,7 @@ impl MaterialToml {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SphereToml {
-    center: [f32; 3],
+    center: Exact<f64, 3>,
     radius: f32,
     material: Option<MaterialToml>,
 }
@@ -212,11 +200,31 @@ struct LightToml {
     kind: String,
     radiance: Option<Rgb>,
     file: Option<String>,
-    position: Option<[f32; 3]>,
+    position: Option<Exact<f64, 3>>,
     intensity: Option<Rgb>,
-    direction: Option<[f32; 3]>,
+    direction: Option<Exact<f32, 3>>,
     irradiance: Option<Rgb>,
-    attenuation: Option<[f32; 3]>,
+    attenuation: Option<Exact<f32, 3>>,
+}
+
+/// A fixed-length array: more elements, or fewer, are an error at its line
+/// (serde's own arrays stop reading after `N`).
+#[derive(Debug, Clone, Copy)]
+struct Exact<T, const N: usize>([T; N]);
+
+impl<'de, T: Deserialize<'de> + Copy + Default, const N: usize> Deserialize<'de> for Exact<T, N> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        let v = Vec::<T>::deserialize(d)?;
+        if v.len() != N {
+            return Err(de::Error::custom(format!(
+                "expected an array of {N} numbers, got {}",
+                v.len()
+            )));
+        }
+        let mut out = [T::default(); N];
+        out.copy_from_slice(&v);
+        Ok(Exact(out))
+    }
 }
 
 /// A colour-like value: one number or an `[r, g, b]` triple.
@@ -303,10 +311,17 @@ fn check_vec(path: &Path, line: Option<usize>, what: &str, v: Vec3) -> Result<Ve
     }
 }
 
-/// A camera position: finite and within Embree's range.
-fn check_point(path: &Path, line: Option<usize>, what: &str, p: [f32; 3]) -> Result<Vec3> {
-    let v = check_vec(path, line, what, Vec3::from(p))?;
-    if v.abs().max_element() > MAX_COORDINATE {
+/// A world position: finite and within Embree's range.
+fn check_point(path: &Path, line: Option<usize>, what: &str, p: [f64; 3]) -> Result<DVec3> {
+    let v = DVec3::from(p);
+    if !v.is_finite() {
+        return Err(Error::input(
+            path,
+            line,
+            format!("{what} must be finite, got {v}"),
+        ));
+    }
+    if v.abs().max_element() > MAX_COORDINATE as f64 {
         return Err(Error::input(
             path,
             line,
@@ -342,13 +357,11 @@ impl Textures {
         if let Some(t) = self.loaded.get(&full) {
             return Ok(t.clone());
         }
-        if !full.is_file() {
+        if let Some(why) = super::not_a_file(&full) {
             return Err(Error::input(
                 path,
                 line,
-                format!(
-                    "texture `{file}` not found (expected a .png or .exr file next to the scene)"
-                ),
+                format!("texture `{file}` {why} (expected a .png or .exr file next to the scene)"),
             ));
         }
         let t = Arc::new(ImageTexture::load(&full)?);
@@ -518,7 +531,7 @@ fn parse_transform(
         return Ok(transform);
     };
     if let Some(s) = t.scale {
-        transform.scale = check_vec(path, line, "transform.scale", s.0)?;
+        transform.scale = check_vec(path, line, "transform.scale", s.0)?.as_dvec3();
         if transform.scale.x * transform.scale.y * transform.scale.z == 0.0 {
             return Err(Error::input(
                 path,
@@ -527,14 +540,9 @@ fn parse_transform(
             ));
         }
     }
-    if let Some(r) = t.rotate {
-        let axis = check_vec(
-            path,
-            line,
-            "transform.rotate axis",
-            Vec3::new(r[0], r[1], r[2]),
-        )?;
-        if axis.length() == 0.0 || !r[3].is_finite() {
+    if let Some(Exact(r)) = t.rotate {
+        let axis = DVec3::new(r[0], r[1], r[2]);
+        if axis.length() == 0.0 || !axis.is_finite() || !r[3].is_finite() {
             return Err(Error::input(
                 path,
                 line,
@@ -543,15 +551,25 @@ fn parse_transform(
         }
         transform.rotate = Some((axis, r[3]));
     }
-    if let Some(tr) = t.translate {
-        transform.translate = check_vec(path, line, "transform.translate", Vec3::from(tr))?;
+    if let Some(Exact(tr)) = t.translate {
+        // finite is enough: what a translation takes beyond Embree's range
+        // is dropped with a warning naming the mesh, as for any transform
+        let v = DVec3::from(tr);
+        if !v.is_finite() {
+            return Err(Error::input(
+                path,
+                line,
+                format!("transform.translate must be finite, got {v}"),
+            ));
+        }
+        transform.translate = v;
     }
     Ok(transform)
 }
 
 /// Load a TOML scene.
 pub fn load(path: &Path) -> Result<Scene> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = super::read_bounded(path, super::MAX_SCENE_FILE_BYTES, super::Content::Text)?;
     let text = String::from_utf8(bytes)
         .map_err(|_| Error::input(path, None, "not UTF-8 text (expected a TOML scene)"))?;
     let file: SceneFile = toml::from_str(&text).map_err(|e| {
@@ -686,7 +704,7 @@ pub fn load(path: &Path) -> Result<Scene> {
     let sphere_lines = table_lines(&text, "sphere");
     for (i, sp) in file.sphere.iter().enumerate() {
         let line = sphere_lines.get(i).copied();
-        let center = check_point(path, line, "sphere.center", sp.center)?;
+        let center = check_point(path, line, "sphere.center", sp.center.0)?;
         if !(sp.radius > 0.0 && sp.radius <= MAX_COORDINATE) {
             return Err(Error::input(
                 path,
@@ -697,7 +715,7 @@ pub fn load(path: &Path) -> Result<Scene> {
                 ),
             ));
         }
-        if (center.abs() + Vec3::splat(sp.radius)).max_element() > MAX_COORDINATE {
+        if (center.abs() + sp.radius as f64).max_element() > MAX_COORDINATE as f64 {
             return Err(Error::input(
                 path,
                 line,
@@ -711,16 +729,10 @@ pub fn load(path: &Path) -> Result<Scene> {
         if let Some(over) = &sp.material {
             apply_material(path, line, over, &mut material, &mut textures)?;
         }
-        b.add_sphere(
-            Sphere {
-                center,
-                radius: sp.radius,
-            },
-            material,
-            line,
-        )?;
+        b.add_sphere(center, sp.radius, material, line)?;
     }
 
+    let mut point_lights = Vec::new();
     let scene = b.scene_mut();
     let light_lines = table_lines(&text, "light");
     for (i, l) in file.light.iter().enumerate() {
@@ -769,9 +781,9 @@ pub fn load(path: &Path) -> Result<Scene> {
                         ));
                     }
                     let full = dir.join(f);
-                    if !full.is_file() {
+                    if let Some(why) = super::not_a_file(&full) {
                         return Err(fail(format!(
-                            "environment file `{f}` not found (expected a .exr or .png next to the scene)"
+                            "environment file `{f}` {why} (expected a .exr or .png next to the scene)"
                         )));
                     }
                     scene.environment_map = Some(EnvironmentMap::load(&full, r)?);
@@ -783,24 +795,24 @@ pub fn load(path: &Path) -> Result<Scene> {
                 let p = l
                     .position
                     .ok_or_else(|| fail("point light needs `position`".to_string()))?;
-                let p = check_point(path, line, "position", p)?;
+                let p = check_point(path, line, "position", p.0)?;
                 let i = check_colour(path, line, "intensity", need(l.intensity, "intensity")?)?;
-                let mut light = PointLight::new(p, i);
-                if let Some(a) = l.attenuation {
+                let mut light = PointLight::new(Vec3::ZERO, i);
+                if let Some(Exact(a)) = l.attenuation {
                     light = light.with_attenuation(a).ok_or_else(|| {
                         fail(format!(
                             "point light: `attenuation` [constant, linear, quadratic] must be finite, non-negative and not all zero, got {a:?}"
                         ))
                     })?;
                 }
-                scene.point_lights.push(light);
+                point_lights.push((p, light));
             }
             _ => {
                 let d = l
                     .direction
                     .ok_or_else(|| fail("directional light needs `direction`".to_string()))?;
                 let e = check_colour(path, line, "irradiance", need(l.irradiance, "irradiance")?)?;
-                let light = DirectionalLight::new(Vec3::from(d), e).ok_or_else(|| {
+                let light = DirectionalLight::new(Vec3::from(d.0), e).ok_or_else(|| {
                     fail(format!(
                         "directional light: `direction` must be finite and non-zero, got {d:?}"
                     ))
@@ -811,7 +823,7 @@ pub fn load(path: &Path) -> Result<Scene> {
     }
 
     if let Some(f) = &file.film {
-        let [w, h] = *f.resolution.get_ref();
+        let Exact([w, h]) = *f.resolution.get_ref();
         limits::check_resolution(w, h)
             .map_err(|m| Error::input(path, Some(line_of(&text, f.resolution.span().start)), m))?;
         scene.resolution = [w as u32, h as u32];
@@ -853,70 +865,78 @@ pub fn load(path: &Path) -> Result<Scene> {
         }
     }
     scene.render = render;
-    match &file.camera {
-        Some(c) => {
-            let line = text
-                .lines()
-                .position(|l| l.trim() == "[camera]")
-                .map(|n| n + 1);
-            let origin = check_point(path, line, "camera.origin", c.origin)?;
-            let target = check_point(path, line, "camera.target", c.target)?;
-            let up = check_vec(path, line, "camera.up", Vec3::from(c.up))?;
-            let view = target - origin;
-            if view.length() == 0.0 || view.cross(up).length() == 0.0 {
-                return Err(Error::input(
-                    path,
-                    line,
-                    "camera: origin and target must differ and `up` must not be parallel to the view",
-                ));
-            }
-            if !(c.fov_y > 0.0 && c.fov_y < 180.0) {
-                return Err(Error::input(
-                    path,
-                    line,
-                    format!("camera.fov_y must be in (0, 180) degrees, got {}", c.fov_y),
-                ));
-            }
-            scene.camera = CameraDesc {
-                origin,
-                target,
-                up,
-                fov_y: c.fov_y,
-            };
-            if let Some(f) = c.focal_pixels {
-                if !(f.is_finite() && f > 0.0) {
-                    return Err(Error::input(
-                        path,
-                        line,
-                        format!("camera.focal_pixels must be a positive number, got {f}"),
-                    ));
-                }
-                scene.set_focal_pixels(f);
-            }
-            // the plane in focus defaults to the target's
-            let focus = c.focus_distance.unwrap_or(view.length());
-            // lens points must stay within Embree's coordinate range
-            if origin.abs().max_element() + c.aperture_radius.abs() > MAX_COORDINATE {
-                return Err(Error::input(
-                    path,
-                    line,
-                    format!(
-                        "camera.aperture_radius {:e} takes the lens beyond +-{MAX_COORDINATE:e}",
-                        c.aperture_radius
-                    ),
-                ));
-            }
-            scene.lens = ThinLens::new(c.aperture_radius, focus).map_err(|e| match e {
-                Error::Settings(m) => Error::input(path, line, format!("camera.{m}")),
-                other => other,
-            })?;
+    if let Some(c) = &file.camera {
+        let at = |span: std::ops::Range<usize>| Some(line_of(&text, span.start));
+        let origin_line = at(c.origin.span());
+        let origin = check_point(path, origin_line, "camera.origin", c.origin.get_ref().0)?;
+        let target_line = at(c.target.span());
+        let target = check_point(path, target_line, "camera.target", c.target.get_ref().0)?;
+        let (up, up_line) = match &c.up {
+            Some(u) => (DVec3::from(u.get_ref().0), at(u.span())),
+            None => (DVec3::Y, target_line),
+        };
+        let view = target - origin;
+        if !up.is_finite() || view.length() == 0.0 || view.cross(up).length() == 0.0 {
+            return Err(Error::input(
+                path,
+                up_line,
+                "camera: origin and target must differ and `up` must be finite and not parallel to the view",
+            ));
         }
-        None => {
-            scene.camera = Scene::framing_camera(&scene.bounds());
-            scene
-                .notes
-                .push("no [camera]: framed automatically from the scene bounds".to_string());
+        let fov_y = c.fov_y.as_ref().map_or(39.3, |f| *f.get_ref());
+        if !(fov_y > 0.0 && fov_y < 180.0) {
+            return Err(Error::input(
+                path,
+                c.fov_y.as_ref().and_then(|f| at(f.span())),
+                format!("camera.fov_y must be in (0, 180) degrees, got {fov_y}"),
+            ));
         }
+        b.set_camera(WorldCamera {
+            origin,
+            target,
+            up: up.as_vec3(),
+            fov_y,
+        });
+        let scene = b.scene_mut();
+        if let Some(f) = &c.focal_pixels {
+            let (line, f) = (at(f.span()), *f.get_ref());
+            if !(f.is_finite() && f > 0.0) {
+                return Err(Error::input(
+                    path,
+                    line,
+                    format!("camera.focal_pixels must be a positive number, got {f}"),
+                ));
+            }
+            scene.focal_pixels = Some(f);
+        }
+        // the plane in focus defaults to the target's
+        let focus = c
+            .focus_distance
+            .as_ref()
+            .map_or(view.length() as f32, |f| *f.get_ref());
+        let aperture = c.aperture_radius.as_ref().map_or(0.0, |a| *a.get_ref());
+        let lens_line = c
+            .aperture_radius
+            .as_ref()
+            .or(c.focus_distance.as_ref())
+            .and_then(|a| at(a.span()));
+        // lens points must stay within Embree's coordinate range
+        if origin.abs().max_element() + aperture.abs() as f64 > MAX_COORDINATE as f64 {
+            return Err(Error::input(
+                path,
+                lens_line,
+                format!(
+                    "camera.aperture_radius {aperture:e} takes the lens beyond +-{MAX_COORDINATE:e}"
+                ),
+            ));
+        }
+        scene.lens = ThinLens::new(aperture, focus).map_err(|e| match e {
+            Error::Settings(m) => Error::input(path, lens_line, format!("camera.{m}")),
+            other => other,
+        })?;
+    }
+    for (p, light) in point_lights {
+        b.add_point_light(p, light);
     }
     Ok(b.build())
 }
