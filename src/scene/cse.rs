@@ -557,7 +557,21 @@ pub fn load(path: &Path) -> Result<Scene> {
                 let a = DVec3::new(v[0], v[1], v[2]);
                 let ab = DVec3::new(v[3], v[4], v[5]);
                 let ac = DVec3::new(v[6], v[7], v[8]);
-                // wound so that the front is ac x ab
+                // Wound so that the front is ac x ab. The course's own
+                // statement of this rule could not be found: no CSE 167/168
+                // assignment text, reference renderer or course scene file is
+                // in this repository, and a search of stored public pages and
+                // code found none (only students' renderers that parse the
+                // command and cite nothing on its side). The rule is this
+                // loader's choice, made so that a ceiling light written with
+                // `ab` along +z and `ac` along +x, as in
+                // tests/data/cse/cornell.test (written for these tests in the
+                // course's dialect, not a course file), faces down into the
+                // room: ac x ab = -y, where ab x ac would light only the
+                // ceiling. tests/cse.rs pins it
+                // (a_quad_light_faces_ac_cross_ab_with_its_radiance); if the
+                // course's renderer is found to emit on the other side, swap
+                // the winding here and that test's expectation.
                 let corners = [a, a + ac, a + ab + ac, a + ab].map(|p| m.transform_point3(p));
                 quads.push((corners, radiance, line));
             }
