@@ -53,7 +53,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 ///   as that value, and a square above 2^64 (a component above 2^32, 4.3e9)
 ///   adds as 2^64, under-estimating that pixel's variance.
 ///
-/// With at most [`MAX_SPP`](crate::scene::limits::MAX_SPP) = 2^24 samples
+/// With at most [`MAX_SPP`](crate::limits::MAX_SPP) = 2^24 samples
 /// per pixel of at most 2^104 units each, no sum can overflow its `u128`.
 pub const FRACTION_BITS: u32 = 40;
 

@@ -24,6 +24,7 @@ pub mod farm;
 pub mod film;
 pub mod integrator;
 pub mod light;
+pub mod limits;
 pub mod outputs;
 pub mod parity;
 pub mod plan;

@@ -265,9 +265,9 @@ pub fn tile_side(tile_size: u32) -> u32 {
 }
 
 /// A pool of `threads` workers (0 = one per core), at most
-/// [`MAX_THREADS`](crate::scene::limits::MAX_THREADS): every command's threads come from here.
+/// [`MAX_THREADS`](crate::limits::MAX_THREADS): every command's threads come from here.
 pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
-    crate::scene::limits::check_threads(threads).map_err(Error::Settings)?;
+    crate::limits::check_threads(threads).map_err(Error::Settings)?;
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()

@@ -1,6 +1,6 @@
 //! The one settings resolver: what a render uses, from a scene's defaults
 //! and the command line's flags, checked against the limits of
-//! [`crate::scene::limits`] in one place.
+//! [`crate::limits`] in one place.
 //!
 //! Every command that renders or plans a render (`render`, `study`, `bench
 //! --effects` and `--efficiency`, `parity`'s image, `plan`) calls
@@ -13,7 +13,8 @@
 
 use crate::error::{Error, Result};
 use crate::integrator::{DirectStrategy, IntegratorSettings, Roulette};
-use crate::scene::{MAX_RESOLUTION, RenderDefaults, limits};
+use crate::limits::{self, MAX_RESOLUTION};
+use crate::scene::RenderDefaults;
 
 /// Tile side in pixels when a command does not say (`render --tile-size`'s
 /// default).

@@ -14,7 +14,7 @@
 //! wall-clock time, so that other tests loading the machine cannot make a
 //! slow load look like a hang), and an error must be one line naming one of
 //! the scene's files.
-//! Memory is bounded by the scene limits (`embertrace::scene::limits`), which
+//! Memory is bounded by the scene limits (`embertrace::limits`), which
 //! `tests/cli.rs` and the loaders' unit tests check directly.
 //!
 //! Each loader gets `EMBERTRACE_FUZZ_ITERS` inputs (default 200, so that
@@ -131,7 +131,7 @@ const MTL: &str = "# fuzz seed\nnewmtl white\nKd 0.725 0.71 0.68\n\n\
 newmtl light\nKd 0.78 0.78 0.78\nKe 17 12 4\n";
 
 /// Hostile seeds: every value at or next to its limit
-/// (`embertrace::scene::limits`), the inline-array spelling of tables,
+/// (`embertrace::limits`), the inline-array spelling of tables,
 /// out-of-range placements, and comments and quoting in odd places, so that
 /// one or two mutations reach the edges.
 const TOML_EDGES: &str = r#"mesh = [{ file = "mesh.obj", transform = { scale = [1e18, -1e18, 1e18], translate = [9e17, 0, -9e17] } }, { 'file' = 'mesh.obj', material = { two_sided = false, emission = [0, 0, 1e30] } }, { file = "mesh.obj", material = { type = "mirror", reflectance = 1 } }]

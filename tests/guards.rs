@@ -7,8 +7,9 @@
 //! file are a load error at their line (tests/cli.rs).
 
 use embertrace::accel::{self, AccelOptions, Backend};
+use embertrace::limits::MAX_COORDINATE;
 use embertrace::math::{Ray, Vec3};
-use embertrace::scene::{MAX_COORDINATE, Scene};
+use embertrace::scene::Scene;
 
 const QUAD: &str = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n";
 

@@ -44,11 +44,11 @@
 //! warnings naming the element and line; malformed ones are errors naming
 //! the file and line.
 
-use super::limits::{self, MAX_COORDINATE};
 use super::{LightCount, Material, MeshData, Scene, SceneBuilder, WorldCamera};
 use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Mirror};
 use crate::error::{Error, Result, one_line};
 use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
+use crate::limits::{self, MAX_COORDINATE};
 use crate::math::Vec3;
 use crate::texture::ImageTexture;
 use glam::{DAffine3, DMat3, DMat4, DVec3};

@@ -49,12 +49,12 @@
 //! out of range, a `popTransform` with nothing pushed) are errors naming the
 //! file and line.
 
-use super::limits::{self, MAX_DEPTH};
 use super::{Material, MeshData, Scene, SceneBuilder, WorldCamera};
 use crate::bsdf::{Bsdf, Diffuse, Lobe, Microfacet, Phong};
 use crate::error::{Error, Result};
 use crate::integrator::{DirectStrategy, Roulette};
 use crate::light::{DirectionalLight, PointLight};
+use crate::limits::{self, MAX_DEPTH};
 use crate::math::Vec3;
 use glam::{DAffine3, DMat3, DQuat, DVec3};
 use std::f32::consts::PI;

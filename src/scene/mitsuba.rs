@@ -46,7 +46,6 @@
 //! scatter on both sides. In a closed room seen from inside the two agree;
 //! a back face in view differs.
 
-use super::limits::{MAX_COORDINATE, check_max_depth, check_resolution, check_spp};
 use super::{Material, MeshData, Scene, SceneBuilder, WorldCamera, load_obj_mesh, load_ply_mesh};
 use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Plastic};
 use crate::camera::ThinLens;
@@ -54,6 +53,7 @@ use crate::error::{Error, Result, one_line};
 use crate::light::directional::DirectionalLight;
 use crate::light::envmap::EnvironmentMap;
 use crate::light::point::PointLight;
+use crate::limits::{MAX_COORDINATE, check_max_depth, check_resolution, check_spp};
 use crate::math::{Vec2, Vec3};
 use crate::texture::ImageTexture;
 use glam::{DAffine3, DMat3, DVec3};
@@ -550,7 +550,7 @@ impl<'a, 'i> Loader<'a, 'i> {
         // Mitsuba's default when no integrator is given is `path` with
         // max_depth -1 (our limit) and rr_depth 5
         let mut render = super::RenderDefaults {
-            max_depth: super::limits::MAX_DEPTH,
+            max_depth: crate::limits::MAX_DEPTH,
             ..Default::default()
         };
         let mut rr_depth = Some(5);
@@ -631,7 +631,7 @@ impl<'a, 'i> Loader<'a, 'i> {
         }
         if let Some((d, line)) = p.number("max_depth") {
             if d == -1.0 {
-                render.max_depth = super::limits::MAX_DEPTH;
+                render.max_depth = crate::limits::MAX_DEPTH;
             } else if d >= 1.0 && d.fract() == 0.0 {
                 let ours = d as u64 - 1;
                 check_max_depth(ours).map_err(|m| {

@@ -3,11 +3,10 @@
 //! format fills it through [`SceneBuilder`], which is also where geometry is
 //! cleaned (degenerate and non-finite triangles dropped and reported) so that
 //! every backend sees the same triangles, and where the scene-wide limits of
-//! [`limits`] are enforced.
+//! [`crate::limits`] are enforced.
 
 mod collada;
 mod cse;
-pub mod limits;
 mod mitsuba;
 mod obj;
 mod ply;
@@ -21,16 +20,13 @@ use crate::camera::{Camera, ThinLens};
 use crate::error::{Error, Result};
 use crate::integrator::{DirectStrategy, Roulette};
 use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
+use crate::limits::{MAX_COORDINATE, MAX_SCENE_FILE_BYTES, MAX_TRIANGLES, MAX_VERTICES};
 use crate::math::{DVec3, Ray, SurfacePoint, Vec2, Vec3, needle_factor, triangle_normal};
 use crate::texture::ImageTexture;
 use glam::DAffine3;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-pub use limits::{
-    MAX_COORDINATE, MAX_MESH_FILE_BYTES, MAX_PIXELS, MAX_RESOLUTION, MAX_SCENE_FILE_BYTES,
-    MAX_TRIANGLES, MAX_VERTICES,
-};
 pub use obj::load_obj_mesh;
 pub use ply::{MAX_POLYGON, load_ply_mesh};
 

@@ -18,12 +18,12 @@
 //! not rendered). tobj then parses that text, so its view and the checks
 //! are the same.
 
-use super::limits::{
-    MAX_COORDINATE, MAX_MESH_FILE_BYTES, MAX_SCENE_FILE_BYTES, MAX_TRIANGLES, MAX_VERTICES,
-};
 use super::{Content, Material, MeshData, Scene, read_bounded};
 use crate::bsdf::{Bsdf, Diffuse, Glass, Mirror, Plastic};
 use crate::error::{Error, Result};
+use crate::limits::{
+    MAX_COORDINATE, MAX_MESH_FILE_BYTES, MAX_SCENE_FILE_BYTES, MAX_TRIANGLES, MAX_VERTICES,
+};
 use crate::math::{DVec3, Vec2, Vec3};
 use crate::texture::ImageTexture;
 use std::collections::HashMap;

@@ -24,9 +24,9 @@
 //! and for ASCII data, the element (by name and index) and its byte offset
 //! for binary data.
 
-use super::limits::{MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
 use super::{Material, MeshData};
 use crate::error::{Error, Result};
+use crate::limits::{MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
 use crate::math::{DVec3, Vec2, Vec3};
 use std::path::Path;
 
@@ -405,7 +405,7 @@ fn is_index_list(name: &str) -> bool {
 pub fn load_ply_mesh(path: &Path) -> Result<MeshData> {
     let bytes = super::read_bounded(
         path,
-        super::MAX_MESH_FILE_BYTES,
+        crate::limits::MAX_MESH_FILE_BYTES,
         super::Content::Magic(b"ply", "PLY"),
     )?;
     let header = parse_header(path, &bytes)?;

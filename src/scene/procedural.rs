@@ -22,7 +22,7 @@ use super::{Material, MeshData};
 use crate::math::Vec3;
 use crate::sampler::Sampler;
 
-pub use super::limits::MAX_TRIANGLES;
+pub use crate::limits::MAX_TRIANGLES;
 
 /// A procedural shape.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,6 +1,6 @@
 //! The TOML scene format. The schema is fixed (other scripts write it); unknown
 //! keys are errors naming the key, the file and the line, and every value is
-//! checked against [`super::limits`] before anything is allocated for it.
+//! checked against [`crate::limits`] before anything is allocated for it.
 //!
 //! ```toml
 //! [camera]
@@ -34,7 +34,6 @@
 //! radiance = [1.0, 1.0, 1.0]  # or one number
 //! ```
 
-use super::limits::{self, MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
 use super::procedural::{self, Shape};
 use super::{
     Material, MeshData, RenderDefaults, Scene, SceneBuilder, Transform, WorldCamera, load_obj_mesh,
@@ -47,6 +46,7 @@ use crate::camera::ThinLens;
 use crate::error::{Error, Result};
 use crate::integrator::Roulette;
 use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
+use crate::limits::{self, MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
 use crate::math::{DVec3, Vec3};
 use crate::texture::ImageTexture;
 use serde::Deserialize;
@@ -569,7 +569,11 @@ fn parse_transform(
 
 /// Load a TOML scene.
 pub fn load(path: &Path) -> Result<Scene> {
-    let bytes = super::read_bounded(path, super::MAX_SCENE_FILE_BYTES, super::Content::Text)?;
+    let bytes = super::read_bounded(
+        path,
+        crate::limits::MAX_SCENE_FILE_BYTES,
+        super::Content::Text,
+    )?;
     let text = String::from_utf8(bytes)
         .map_err(|_| Error::input(path, None, "not UTF-8 text (expected a TOML scene)"))?;
     let file: SceneFile = toml::from_str(&text).map_err(|e| {

@@ -131,7 +131,7 @@ impl EmbreeAccel {
     }
 
     /// How many rays with a non-finite origin, direction or extent, or an
-    /// origin beyond [`crate::scene::MAX_COORDINATE`], were answered with a
+    /// origin beyond [`crate::limits::MAX_COORDINATE`], were answered with a
     /// miss instead of being sent to Embree (release builds; debug builds
     /// panic on non-finite ones instead).
     pub fn skipped_nonfinite_rays(&self) -> u64 {
@@ -147,7 +147,7 @@ impl EmbreeAccel {
         // Embree asserts (aborts, in Debian's build) on an origin beyond its
         // range (`FLT_LARGE`, 1.844e18); scenes keep every point within
         // `MAX_COORDINATE`, so only a bug could send one: count it too
-        if !ray.is_finite() || ray.o.abs().max_element() > crate::scene::MAX_COORDINATE {
+        if !ray.is_finite() || ray.o.abs().max_element() > crate::limits::MAX_COORDINATE {
             self.skipped_nonfinite.fetch_add(1, Ordering::Relaxed);
             return false;
         }
