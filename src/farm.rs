@@ -26,6 +26,7 @@
 
 use crate::error::{Error, Result};
 use crate::film::{Film, TileBounds};
+use crate::image::{exr_layer_attributes, read_exr_channels, read_exr_metadata, write_exr_image};
 use crate::scene::Scene;
 use std::fmt::Write as _;
 use std::ops::Range;
@@ -293,7 +294,7 @@ impl Provenance {
     }
 
     /// Read a provenance back from `path`'s attributes (sorted by name, as
-    /// [`crate::film::read_exr_metadata`] returns them).
+    /// [`crate::image::read_exr_metadata`] returns them).
     fn from_metadata(path: &Path, meta: &[(String, String)]) -> Result<Provenance> {
         let get = |name: &str| {
             meta.iter()
@@ -383,8 +384,8 @@ const RGB: [char; 3] = ['R', 'G', 'B'];
 /// Write `film` with its provenance as an accumulation file, atomically.
 pub fn write_accumulation(path: &Path, film: &Film, prov: &Provenance) -> Result<()> {
     use exr::prelude::{
-        AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, ImageAttributes,
-        IntegerBounds, Layer, LayerAttributes, SmallVec, Text, Vec2, WritableImage,
+        AnyChannel, AnyChannels, Encoding, FlatSamples, Image, ImageAttributes, IntegerBounds,
+        Layer, LayerAttributes, SmallVec, Vec2,
     };
     let b = film.bounds();
     debug_assert_eq!(b, prov.window);
@@ -423,17 +424,10 @@ pub fn write_accumulation(path: &Path, film: &Film, prov: &Provenance) -> Result
     let [rw, rh] = prov
         .resolution()
         .expect("a provenance we made has a resolution");
-    let mut attributes = LayerAttributes {
-        software_name: Text::new_or_none(concat!("embertrace ", env!("CARGO_PKG_VERSION"))),
+    let attributes = LayerAttributes {
         layer_position: Vec2(b.x0 as i32, b.y0 as i32),
-        ..LayerAttributes::default()
+        ..exr_layer_attributes(&prov.metadata())
     };
-    for (name, value) in prov.metadata() {
-        attributes.other.insert(
-            Text::from_slice_unchecked(name.as_bytes()),
-            AttributeValue::Text(Text::from_slice_unchecked(value.as_bytes())),
-        );
-    }
     let layer = Layer::new(
         (b.width as usize, b.height as usize),
         attributes,
@@ -442,33 +436,16 @@ pub fn write_accumulation(path: &Path, film: &Film, prov: &Provenance) -> Result
     );
     let mut image = Image::from_layer(layer);
     image.attributes = ImageAttributes::new(IntegerBounds::new((0, 0), (rw as usize, rh as usize)));
-    crate::film::write_atomically(path, |w| {
-        image.write().to_buffered(w).map_err(|e| match e {
-            exr::error::Error::Io(e) => Error::io(path, e),
-            other => Error::Settings(format!(
-                "{}: cannot encode OpenEXR: {other}",
-                path.display()
-            )),
-        })
-    })
+    write_exr_image(path, &image)
 }
 
 /// Read an accumulation file: its film (window and exact sums) and
 /// provenance.
 pub fn read_accumulation(path: &Path) -> Result<(Film, Provenance)> {
-    use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
-    let meta = crate::film::read_exr_metadata(path)?;
+    use exr::prelude::FlatSamples;
+    let meta = read_exr_metadata(path)?;
     let prov = Provenance::from_metadata(path, &meta)?;
-    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let image = exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_buffered(std::io::BufReader::new(file))
-        .map_err(|e| Error::input(path, None, format!("not a readable OpenEXR file: {e}")))?;
-    let layer = image.layer_data;
+    let layer = read_exr_channels(path)?;
     let w = prov.window;
     let (lw, lh) = (layer.size.width(), layer.size.height());
     let pos = layer.attributes.layer_position;
@@ -619,7 +596,7 @@ pub fn merge(parts: &[PathBuf], partial: bool) -> Result<(Film, Provenance, Merg
     // read every provenance first: a mismatch fails before any pixel is read
     let mut provs = Vec::with_capacity(parts.len());
     for path in parts {
-        let meta = crate::film::read_exr_metadata(path)?;
+        let meta = read_exr_metadata(path)?;
         provs.push(Provenance::from_metadata(path, &meta)?);
     }
     let (first, p0) = (&parts[0], &provs[0]);

@@ -22,6 +22,7 @@ pub mod effects_bench;
 pub mod efficiency;
 pub mod farm;
 pub mod film;
+pub mod image;
 pub mod integrator;
 pub mod light;
 pub mod limits;

@@ -17,18 +17,9 @@
 //! (repeat) addressing in both `u` and `v`, so a texture tiles the plane.
 
 use crate::error::{Error, Result};
+use crate::image::{read_exr, read_png};
 use crate::math::{Vec2, Vec3};
 use std::path::{Path, PathBuf};
-
-/// The exact sRGB electro-optical transfer function: encoded value in
-/// `[0, 1]` to linear.
-pub fn srgb_to_linear(c: f64) -> f64 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
 
 /// A linear-RGB image, row 0 at the top.
 #[derive(Debug, Clone)]
@@ -63,7 +54,7 @@ impl ImageTexture {
             .map(str::to_ascii_lowercase);
         let (width, height, rgb) = match ext.as_deref() {
             Some("png") => read_png(path)?,
-            Some("exr") => crate::film::read_exr(path)?,
+            Some("exr") => read_exr(path)?,
             _ => {
                 return Err(Error::input(
                     path,
@@ -183,43 +174,15 @@ impl ImageTexture {
     }
 }
 
-/// Decodes a PNG to linear RGB: `(width, height, rgb)`, top row first.
-fn read_png(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
-    let mut reader = image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
-    reader.set_format(image::ImageFormat::Png);
-    let img = reader.decode().map_err(|e| match e {
-        image::ImageError::IoError(e) => Error::io(path, e),
-        other => Error::input(path, None, format!("not a readable PNG file: {other}")),
-    })?;
-    // 8-bit values v become 257 v exactly, so one 16-bit table serves both
-    let img = img.into_rgb16();
-    let lut: Vec<f32> = (0..=u16::MAX)
-        .map(|v| srgb_to_linear(v as f64 / u16::MAX as f64) as f32)
-        .collect();
-    let rgb = img.as_raw().iter().map(|&v| lut[v as usize]).collect();
-    Ok((img.width(), img.height(), rgb))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::image::srgb_to_linear;
 
     fn checker() -> ImageTexture {
         // 2 x 2: top row red, green; bottom row blue, white
         ImageTexture::from_linear_rgb(2, 2, vec![1., 0., 0., 0., 1., 0., 0., 0., 1., 1., 1., 1.])
             .unwrap()
-    }
-
-    #[test]
-    fn srgb_transfer_function_matches_the_standard() {
-        assert_eq!(srgb_to_linear(0.0), 0.0);
-        assert_eq!(srgb_to_linear(1.0), 1.0);
-        // 0.04045 / 12.92 on the linear segment
-        assert!((srgb_to_linear(0.04045) - 0.003130804953560371).abs() < 1e-15);
-        // the two pieces meet there to 1e-8 (they are not exactly continuous)
-        assert!((srgb_to_linear(0.04045 + 1e-12) - 0.0031308).abs() < 1e-7);
-        // 8-bit 128: ((128/255 + 0.055) / 1.055)^2.4 = 0.2158605
-        assert!((srgb_to_linear(128.0 / 255.0) - 0.21586050011389923).abs() < 1e-12);
     }
 
     #[test]

@@ -645,7 +645,7 @@ fn classic_command_line_renders() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let (w, h, _) = embertrace::film::read_pfm(&dir.path().join("out.pfm")).unwrap();
+    let (w, h, _) = embertrace::image::read_pfm(&dir.path().join("out.pfm")).unwrap();
     assert_eq!((w, h), (16, 12));
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("r.json")).unwrap()).unwrap();
@@ -742,9 +742,9 @@ fn exr_output_carries_render_metadata() {
         "-q printed {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let (w, h, rgb) = embertrace::film::read_exr(&dir.path().join("out.exr")).unwrap();
+    let (w, h, rgb) = embertrace::image::read_exr(&dir.path().join("out.exr")).unwrap();
     assert_eq!((w, h, rgb.len()), (8, 6, 8 * 6 * 3));
-    let meta = embertrace::film::read_exr_metadata(&dir.path().join("out.exr")).unwrap();
+    let meta = embertrace::image::read_exr_metadata(&dir.path().join("out.exr")).unwrap();
     let get = |k: &str| meta.iter().find(|(n, _)| n == k).map(|(_, v)| v.clone());
     assert_eq!(get("embertrace.spp").as_deref(), Some("3"));
     assert_eq!(get("embertrace.seed").as_deref(), Some("9"));

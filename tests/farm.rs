@@ -3,7 +3,7 @@
 //! that do not belong together, with one line, exit 1 and no output file.
 
 use embertrace::farm::{self, Shard};
-use embertrace::film::read_exr;
+use embertrace::image::read_exr;
 use std::path::Path;
 use std::process::{Command, Output};
 

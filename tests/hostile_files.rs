@@ -257,7 +257,7 @@ fn a_bare_flat_mesh_is_framed_face_on_and_renders() {
     );
     // the floor fills the middle of the frame: the centre pixel sees it (a
     // white environment over a grey floor is under 1), the corners see sky
-    let img = embertrace::film::read_pfm(&p.join("out.pfm")).unwrap();
+    let img = embertrace::image::read_pfm(&p.join("out.pfm")).unwrap();
     let at = |x: usize, y: usize| img.2[3 * (y * 16 + x)];
     assert!(at(8, 8) > 0.0 && at(8, 8) < 0.99, "centre {}", at(8, 8));
 }

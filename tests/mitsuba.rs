@@ -29,7 +29,7 @@ mod common;
 
 use common::{MeanTest, PixelStats, sidak_z};
 use embertrace::accel::{self, AccelOptions, Backend};
-use embertrace::film::read_exr;
+use embertrace::image::read_exr;
 use embertrace::integrator::{IntegratorSettings, PathTracer};
 use embertrace::render::{RenderSettings, render};
 use embertrace::sampler::SamplerKind;

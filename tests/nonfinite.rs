@@ -112,7 +112,7 @@ fn cli_reports_kinds_and_writes_the_bad_sample_map() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let (w, h, px) = embertrace::film::read_exr(&dir.path().join("bad.exr")).unwrap();
+    let (w, h, px) = embertrace::image::read_exr(&dir.path().join("bad.exr")).unwrap();
     assert_eq!((w, h), (16, 16));
     assert!(
         px.iter().all(|&c| c == 0.0),

@@ -44,7 +44,8 @@ mod common;
 use common::{MeanTest, PixelStats, sidak_z};
 use embertrace::accel::{self, AccelOptions, Backend};
 use embertrace::camera::Camera;
-use embertrace::film::{self, Film, OutputOptions};
+use embertrace::film::Film;
+use embertrace::image::{self, OutputOptions};
 use embertrace::integrator::{IntegratorSettings, PathTracer};
 use embertrace::math::Vec3;
 use embertrace::render::{RenderSettings, render};
@@ -95,8 +96,8 @@ fn cornell_film(backend: Backend, spp: u32, seed: u64, sampler: SamplerKind) -> 
 
 /// Mitsuba's image: its pixel means and their variances.
 fn mitsuba() -> PixelStats {
-    let (w, h, mean) = film::read_exr(&data("cornell-32-mitsuba.exr")).unwrap();
-    let (vw, vh, var) = film::read_exr(&data("cornell-32-mitsuba-var.exr")).unwrap();
+    let (w, h, mean) = image::read_exr(&data("cornell-32-mitsuba.exr")).unwrap();
+    let (vw, vh, var) = image::read_exr(&data("cornell-32-mitsuba-var.exr")).unwrap();
     assert_eq!((w, h, vw, vh), (RES, RES, RES, RES));
     PixelStats {
         mean: mean.iter().map(|&x| x as f64).collect(),
@@ -195,8 +196,8 @@ fn make_regression_image() {
             ("embertrace.content".into(), what.into()),
         ],
     };
-    film::write_image(&data("cornell-32.exr"), &film, &meta("mean")).unwrap();
-    film::write_image(
+    image::write_image(&data("cornell-32.exr"), &film, &meta("mean")).unwrap();
+    image::write_image(
         &data("cornell-32-var.exr"),
         &var,
         &meta("variance of the mean"),
@@ -206,8 +207,8 @@ fn make_regression_image() {
 
 #[test]
 fn cornell_box_is_unchanged_from_the_stored_render() {
-    let (w, h, reference) = film::read_exr(&data("cornell-32.exr")).unwrap();
-    let (_, _, ref_var) = film::read_exr(&data("cornell-32-var.exr")).unwrap();
+    let (w, h, reference) = image::read_exr(&data("cornell-32.exr")).unwrap();
+    let (_, _, ref_var) = image::read_exr(&data("cornell-32-var.exr")).unwrap();
     assert_eq!((w, h), (RES, RES));
     let tests = (RES * RES * 3) as usize;
     let z = sidak_z(0.01, tests);

@@ -1,0 +1,250 @@
+//! OpenEXR: linear `f32` R, G, B with render metadata as custom text
+//! attributes, lossless (ZIP), so a file holds a film's values bit for bit;
+//! and the pieces the farm's accumulation files (any channels, one layer)
+//! are written and read with.
+
+use super::{Rgb, write_atomically};
+use crate::error::{Error, Result};
+use ::exr::image::write::layers::WritableLayers;
+use ::exr::prelude::{AnyChannels, FlatSamples, Image, Layer, LayerAttributes};
+use std::fs::File;
+use std::path::Path;
+
+/// Checks metadata names against what an EXR header can hold and read back as
+/// a custom attribute.
+fn check_exr_metadata(path: &Path, metadata: &[(String, String)]) -> Result<()> {
+    let bad = |name: &str, why: &str| {
+        Err(Error::Settings(format!(
+            "{}: metadata name `{}` {why}",
+            path.display(),
+            name.escape_debug()
+        )))
+    };
+    for (i, (name, _)) in metadata.iter().enumerate() {
+        if name.is_empty() || name.len() > 255 {
+            return bad(name, "must be 1 to 255 bytes long");
+        }
+        if name.contains('\0') {
+            return bad(name, "must not contain NUL");
+        }
+        if ::exr::meta::header::standard_names::ALL.contains(&name.as_bytes()) {
+            return bad(name, "is a standard OpenEXR attribute");
+        }
+        if metadata[..i].iter().any(|(n, _)| n == name) {
+            return bad(name, "appears twice");
+        }
+    }
+    Ok(())
+}
+
+/// An `exr` error while reading `path`: I/O stays I/O, anything else means the
+/// file is not a usable OpenEXR image.
+fn exr_read_error(path: &Path, e: ::exr::error::Error) -> Error {
+    match e {
+        ::exr::error::Error::Io(e) => Error::io(path, e),
+        other => Error::input(path, None, format!("not a readable OpenEXR file: {other}")),
+    }
+}
+
+/// Layer attributes naming embertrace as the software, with `metadata` as
+/// custom text attributes (names as [`check_exr_metadata`] admits them).
+pub(crate) fn exr_layer_attributes(metadata: &[(String, String)]) -> LayerAttributes {
+    use ::exr::meta::attribute::{AttributeValue, Text};
+
+    let mut attributes = LayerAttributes {
+        software_name: Text::new_or_none(concat!("embertrace ", env!("CARGO_PKG_VERSION"))),
+        ..LayerAttributes::default()
+    };
+    for (name, value) in metadata {
+        attributes.other.insert(
+            Text::from_slice_unchecked(name.as_bytes()),
+            AttributeValue::Text(Text::from_slice_unchecked(value.as_bytes())),
+        );
+    }
+    attributes
+}
+
+/// Encodes `image` as OpenEXR and writes it to `path` atomically (see
+/// [`write_file_atomically`](super::write_file_atomically)).
+pub(crate) fn write_exr_image<'img, L>(path: &Path, image: &'img Image<L>) -> Result<()>
+where
+    L: WritableLayers<'img>,
+{
+    use ::exr::prelude::WritableImage;
+
+    write_atomically(path, |w| {
+        image.write().to_buffered(w).map_err(|e| match e {
+            ::exr::error::Error::Io(e) => Error::io(path, e),
+            other => Error::Settings(format!(
+                "{}: cannot encode OpenEXR: {other}",
+                path.display()
+            )),
+        })
+    })
+}
+
+pub(super) fn write_exr(path: &Path, film: &Rgb, metadata: &[(String, String)]) -> Result<()> {
+    use ::exr::prelude::{Encoding, SpecificChannels, Vec2};
+
+    check_exr_metadata(path, metadata)?;
+    let attributes = exr_layer_attributes(metadata);
+
+    let rgb = film.to_f32();
+    let width = film.width as usize;
+    let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
+        let i = (pos.y() * width + pos.x()) * 3;
+        (rgb[i], rgb[i + 1], rgb[i + 2])
+    });
+    // ZIP is lossless for f32, so the file holds the film's values bit for bit.
+    let layer = Layer::new(
+        (width, film.height as usize),
+        attributes,
+        Encoding::SMALL_LOSSLESS,
+        channels,
+    );
+    let image = Image::from_layer(layer);
+    write_exr_image(path, &image)
+}
+
+/// Reads the R, G, B channels of the first layer of an OpenEXR file as `f32`:
+/// `(width, height, pixels)` with `pixels` row-major, top row first, 3 floats
+/// per pixel. The size is the layer's data window.
+pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
+    use ::exr::prelude::{ReadChannels, ReadLayers, Vec2};
+
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let image = ::exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgb_channels(
+            |size: Vec2<usize>, _| (size.width(), vec![0.0f32; size.area() * 3]),
+            |(w, px): &mut (usize, Vec<f32>), pos: Vec2<usize>, (r, g, b): (f32, f32, f32)| {
+                let i = (pos.y() * *w + pos.x()) * 3;
+                px[i..i + 3].copy_from_slice(&[r, g, b]);
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_unbuffered(file)
+        .map_err(|e| exr_read_error(path, e))?;
+    let layer = image.layer_data;
+    let too_large = || Error::input(path, None, "image dimensions exceed u32");
+    let width = u32::try_from(layer.size.width()).map_err(|_| too_large())?;
+    let height = u32::try_from(layer.size.height()).map_err(|_| too_large())?;
+    Ok((width, height, layer.channel_data.pixels.1))
+}
+
+/// The custom text attributes of an OpenEXR file's first header (the
+/// [`OutputOptions::metadata`] it was written with), sorted by name. Bytes
+/// that are not UTF-8 are replaced.
+pub fn read_exr_metadata(path: &Path) -> Result<Vec<(String, String)>> {
+    use ::exr::meta::attribute::AttributeValue;
+
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let meta = ::exr::meta::MetaData::read_from_unbuffered(file, false)
+        .map_err(|e| exr_read_error(path, e))?;
+    let Some(header) = meta.headers.first() else {
+        return Err(Error::input(path, None, "OpenEXR file has no header"));
+    };
+    let mut pairs: Vec<(String, String)> = header
+        .own_attributes
+        .other
+        .iter()
+        .chain(&header.shared_attributes.other)
+        .filter_map(|(name, value)| match value {
+            AttributeValue::Text(text) => Some((
+                String::from_utf8_lossy(name.as_slice()).into_owned(),
+                String::from_utf8_lossy(text.as_slice()).into_owned(),
+            )),
+            _ => None,
+        })
+        .collect();
+    pairs.sort();
+    Ok(pairs)
+}
+
+/// Every channel of the first layer of the OpenEXR file at `path`, with the
+/// layer's attributes (the farm's accumulation files). A file that opens but
+/// does not decode is an input error.
+pub(crate) fn read_exr_channels(path: &Path) -> Result<Layer<AnyChannels<FlatSamples>>> {
+    use ::exr::prelude::{ReadChannels, ReadLayers};
+
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let image = ::exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::BufReader::new(file))
+        .map_err(|e| Error::input(path, None, format!("not a readable OpenEXR file: {e}")))?;
+    Ok(image.layer_data)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::testing::{bits, entries, gradient_film};
+    use super::super::{OutputOptions, write_image};
+    use super::*;
+    use std::fs;
+
+    #[test]
+    fn exr_round_trip_is_bit_exact_with_metadata() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("img.exr");
+        let film = gradient_film(4, 3);
+        let opts = OutputOptions {
+            exposure: 3.0, // PNG only: must not change the EXR values
+            metadata: vec![
+                ("spp".into(), "64".into()),
+                ("seed".into(), "7".into()),
+                ("backend".into(), "naive".into()),
+                ("render_seconds".into(), "1.25".into()),
+                (
+                    "a name longer than thirty-two bytes".into(),
+                    "ünïcode ✓".into(),
+                ),
+            ],
+        };
+        write_image(&path, &film, &opts).unwrap();
+
+        let (w, h, px) = read_exr(&path).unwrap();
+        assert_eq!((w, h), (4, 3));
+        assert_eq!(bits(&px), bits(&film.to_rgb_f32()));
+
+        let mut expect = opts.metadata.clone();
+        expect.sort();
+        assert_eq!(read_exr_metadata(&path).unwrap(), expect);
+        assert_eq!(entries(dir.path()), ["img.exr"]);
+    }
+
+    #[test]
+    fn bad_exr_metadata_is_rejected_before_writing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("img.exr");
+        let film = gradient_film(2, 2);
+        for metadata in [
+            vec![("channels".to_string(), "x".to_string())],
+            vec![(String::new(), "x".to_string())],
+            vec![("spp".to_string(), "1".to_string()); 2],
+            vec![("a\0b".to_string(), "x".to_string())],
+        ] {
+            let opts = OutputOptions {
+                metadata,
+                ..OutputOptions::default()
+            };
+            let err = write_image(&path, &film, &opts).unwrap_err();
+            assert!(matches!(err, Error::Settings(_)), "{err}");
+        }
+        assert!(entries(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn reading_a_non_exr_file_is_an_input_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("fake.exr");
+        fs::write(&path, b"definitely not an exr file").unwrap();
+        assert!(matches!(read_exr(&path), Err(Error::Input { .. })));
+        assert!(matches!(read_exr_metadata(&path), Err(Error::Input { .. })));
+    }
+}

@@ -1,0 +1,139 @@
+//! PNG: a film's means as 8-bit sRGB after an exposure scale, 8-bit RGB
+//! maps and plots as they are, and PNG textures (8 or 16 bits per channel,
+//! grey or colour, alpha ignored) decoded to linear RGB.
+
+use super::srgb::{srgb_to_linear, srgb8};
+use super::{Rgb, write_atomically, write_file_atomically};
+use crate::error::{Error, Result};
+use std::path::Path;
+
+/// The film's 8-bit sRGB bytes, row-major, top row first, after scaling the
+/// pixel means by `2^exposure`.
+fn png_bytes(film: &Rgb, exposure: f32) -> Vec<u8> {
+    let scale = f64::from(exposure).exp2();
+    film.rgb
+        .iter()
+        .flat_map(|p| p.map(|m| srgb8(m * scale)))
+        .collect()
+}
+
+pub(super) fn write_png(path: &Path, film: &Rgb, exposure: f32) -> Result<()> {
+    use ::image::ImageEncoder;
+    if !exposure.is_finite() {
+        return Err(Error::Settings(format!(
+            "{}: exposure must be a finite number of stops, got {exposure}",
+            path.display()
+        )));
+    }
+    let bytes = png_bytes(film, exposure);
+    write_atomically(path, |w| {
+        ::image::codecs::png::PngEncoder::new(w)
+            .write_image(
+                &bytes,
+                film.width,
+                film.height,
+                ::image::ExtendedColorType::Rgb8,
+            )
+            .map_err(|e| match e {
+                ::image::ImageError::IoError(e) => Error::io(path, e),
+                other => Error::io(path, std::io::Error::other(other)),
+            })
+    })
+}
+
+/// Encode 8-bit RGB pixels (row-major, top row first) as PNG and write them
+/// to `path` atomically.
+pub fn write_png_rgb8(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
+    let mut bytes = Vec::new();
+    ::image::write_buffer_with_format(
+        &mut std::io::Cursor::new(&mut bytes),
+        rgb,
+        width,
+        height,
+        ::image::ExtendedColorType::Rgb8,
+        ::image::ImageFormat::Png,
+    )
+    .map_err(|e| Error::input(path, None, format!("cannot encode PNG: {e}")))?;
+    write_file_atomically(path, &bytes)
+}
+
+/// Reads a PNG (8 or 16 bits per channel, grey or colour; alpha is ignored)
+/// as sRGB-encoded and decodes it to linear RGB: `(width, height, rgb)`,
+/// row-major, top row first, 3 floats per pixel.
+pub fn read_png(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
+    let mut reader = ::image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
+    reader.set_format(::image::ImageFormat::Png);
+    let img = reader.decode().map_err(|e| match e {
+        ::image::ImageError::IoError(e) => Error::io(path, e),
+        other => Error::input(path, None, format!("not a readable PNG file: {other}")),
+    })?;
+    // 8-bit values v become 257 v exactly, so one 16-bit table serves both
+    let img = img.into_rgb16();
+    let lut: Vec<f32> = (0..=u16::MAX)
+        .map(|v| srgb_to_linear(v as f64 / u16::MAX as f64) as f32)
+        .collect();
+    let rgb = img.as_raw().iter().map(|&v| lut[v as usize]).collect();
+    Ok((img.width(), img.height(), rgb))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::testing::entries;
+    use super::super::{OutputOptions, write_image};
+    use super::*;
+    use crate::film::{Film, Pixel};
+    use crate::math::Vec3;
+
+    #[test]
+    fn exposure_doubles_linear_value_per_stop() {
+        let film_with = |v: f32| {
+            let mut f = Film::new(1, 1);
+            f.add_sample(0, 0, Vec3::new(v, v / 2.0, v / 4.0));
+            f
+        };
+        let png_bytes = |f: &Film, exposure: f32| {
+            let means: Vec<[f64; 3]> = f.pixels().iter().map(Pixel::mean_f64).collect();
+            let rgb = Rgb {
+                width: f.width(),
+                height: f.height(),
+                rgb: &means,
+            };
+            png_bytes(&rgb, exposure)
+        };
+        let dim = film_with(0.1);
+        let bright = film_with(0.2);
+        assert_eq!(png_bytes(&dim, 1.0), png_bytes(&bright, 0.0));
+        assert_eq!(png_bytes(&bright, -1.0), png_bytes(&dim, 0.0));
+        assert_eq!(
+            png_bytes(&dim, 1.0),
+            [
+                srgb8(0.2f32 as f64),
+                srgb8(0.1f32 as f64),
+                srgb8(0.05f32 as f64)
+            ]
+        );
+        assert_ne!(png_bytes(&dim, 1.0), png_bytes(&dim, 0.0));
+    }
+
+    #[test]
+    fn png_file_holds_srgb_bytes() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.PNG");
+        let mut film = Film::new(2, 1);
+        film.add_sample(0, 0, Vec3::new(0.5, 1.0, 0.0));
+        film.add_sample(1, 0, Vec3::new(0.25, 0.0, 2.0));
+        write_image(&path, &film, &OutputOptions::default()).unwrap();
+        let img = ::image::open(&path).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (2, 1));
+        assert_eq!(img.as_raw(), &[188, 255, 0, srgb8(0.25), 0, 255]);
+        let opts = OutputOptions {
+            exposure: f32::NAN,
+            ..OutputOptions::default()
+        };
+        assert!(matches!(
+            write_image(&path, &film, &opts),
+            Err(Error::Settings(_))
+        ));
+        assert_eq!(entries(dir.path()), ["out.PNG"]);
+    }
+}
