@@ -10,7 +10,8 @@
 //! sample (render seconds over pixels times spp), Mrays/s, and the ratio to
 //! the first row.
 
-use crate::accel::{self, AccelOptions, Backend, Sphere};
+use crate::accel::{self, AccelOptions, Backend};
+use crate::shape::Sphere;
 use crate::bench::median;
 use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Mirror};
 use crate::camera::ThinLens;

@@ -38,5 +38,6 @@ pub mod sampler;
 pub mod sampling;
 pub mod scene;
 pub mod settings;
+pub mod shape;
 pub mod study;
 pub mod texture;

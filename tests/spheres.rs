@@ -7,12 +7,11 @@
 //! `spawn_ray`) leaving outwards never sees that sphere again, and one
 //! leaving inwards finds its far side, never the near one.
 
-use embertrace::accel::{
-    self, AccelOptions, Accelerator, Backend, Coherence, Hit, Sphere, TriangleSoup,
-};
+use embertrace::accel::{self, AccelOptions, Accelerator, Backend, Coherence, Hit, TriangleSoup};
 use embertrace::math::{Ray, SurfacePoint, Vec3, spawn_ray};
 use embertrace::sampler::Sampler;
 use embertrace::sampling::square_to_uniform_sphere;
+use embertrace::shape::Sphere;
 
 fn build(b: Backend, p: &[Vec3], i: &[[u32; 3]], s: &[Sphere]) -> Box<dyn Accelerator> {
     let soup = TriangleSoup {

@@ -26,6 +26,7 @@ pub mod embree;
 
 use crate::error::Result;
 use crate::math::{Ray, Vec3};
+use crate::shape::Sphere;
 use std::fmt;
 use std::str::FromStr;
 
@@ -115,15 +116,6 @@ impl<'a> TriangleSoup<'a> {
     pub fn primitive_count(&self) -> usize {
         self.indices.len() + self.spheres.len()
     }
-}
-
-/// An analytic sphere. Its outward normal is the front side.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Sphere {
-    /// Centre.
-    pub center: Vec3,
-    /// Radius, `> 0`.
-    pub radius: f32,
 }
 
 /// Backend choice (`--accel`).

@@ -23,8 +23,8 @@
 //! offset), and a ray leaving inwards finds the far side at about
 //! `2 r cos`, never the near side (tested in `tests/conformance.rs`).
 
-use super::Sphere;
 use crate::math::{Ray, Vec3};
+use crate::shape::Sphere;
 
 /// The nearest `t` in `(0, t_max]` where `o + t d` (with `|d| = 1`) meets
 /// sphere `s`, or `None`. Non-finite input and radii that are not positive

@@ -14,7 +14,7 @@ pub mod procedural;
 mod toml_file;
 mod xml;
 
-use crate::accel::{Hit, Sphere};
+use crate::accel::Hit;
 use crate::bsdf::{Bsdf, Diffuse};
 use crate::camera::{Camera, ThinLens};
 use crate::error::{Error, Result};
@@ -22,6 +22,7 @@ use crate::integrator::{DirectStrategy, Roulette};
 use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
 use crate::limits::{MAX_COORDINATE, MAX_SCENE_FILE_BYTES, MAX_TRIANGLES, MAX_VERTICES};
 use crate::math::{DVec3, Ray, SurfacePoint, Vec2, Vec3, needle_factor, triangle_normal};
+use crate::shape::Sphere;
 use crate::texture::ImageTexture;
 use glam::DAffine3;
 use std::path::{Path, PathBuf};

@@ -10,8 +10,9 @@
 use super::device::{Device, backend_error};
 use super::sys;
 use super::user::{self, SphereData};
-use crate::accel::{AccelOptions, Sphere, TriangleSoup};
+use crate::accel::{AccelOptions, TriangleSoup};
 use crate::error::Result;
+use crate::shape::Sphere;
 use std::ptr::NonNull;
 
 /// Build quality of both the mesh BVH and the scene BVH. `HIGH` (spatial

@@ -17,9 +17,9 @@
 //! do plain arithmetic on the sphere array the geometry's user pointer names.
 
 use super::sys;
-use crate::accel::Sphere;
 use crate::accel::sphere::{intersect_sphere, sphere_bounds};
 use crate::math::Vec3;
+use crate::shape::Sphere;
 use std::os::raw::c_void;
 
 /// Field indices in a packet, in units of `N` 4-byte values.
