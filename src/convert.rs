@@ -27,7 +27,7 @@
 use crate::bsdf::{Bsdf, Distribution, Lobe};
 use crate::error::{Error, Result};
 use crate::film::{self, OutputOptions};
-use crate::integrator::{DirectStrategy, Roulette};
+use crate::settings::{DirectStrategy, Roulette};
 use crate::math::Vec3;
 use crate::scene::{Material, Scene};
 use crate::texture::ImageTexture;

@@ -14,7 +14,8 @@
 use crate::accel::{self, AccelOptions, Accelerator, Backend, Coherence, Hit};
 use crate::bench::median;
 use crate::error::Result;
-use crate::integrator::{IntegratorSettings, PathTracer, RayCounts};
+use crate::integrator::{PathTracer, RayCounts};
+use crate::settings::IntegratorSettings;
 use crate::math::Ray;
 use crate::render::{RenderSettings, render};
 use crate::sampler::SamplerKind;

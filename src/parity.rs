@@ -29,7 +29,8 @@
 use crate::accel::triangle::distance_error_bound;
 use crate::accel::{self, AccelOptions, Accelerator, Backend, Hit};
 use crate::error::{Error, Result};
-use crate::integrator::{IntegratorSettings, PathTracer};
+use crate::integrator::PathTracer;
+use crate::settings::IntegratorSettings;
 use crate::math::{Ray, Vec3, gamma, triangle_normal};
 use crate::raysets::{self, RayKind};
 use crate::render::{RenderSettings, render};

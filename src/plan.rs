@@ -13,8 +13,9 @@
 //! possibly more time (tested on every bundled scene and backend).
 
 use crate::bsdf::Bxdf;
-use crate::integrator::{IntegratorSettings, Kernel};
+use crate::integrator::Kernel;
 use crate::scene::Scene;
+use crate::settings::IntegratorSettings;
 use std::fmt::Write;
 use std::str::FromStr;
 

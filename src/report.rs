@@ -2,7 +2,7 @@
 //! from it. Field names are fixed: other scripts read them.
 
 use crate::error::{Error, Result};
-use crate::integrator::{IntegratorSettings, Roulette};
+use crate::settings::{IntegratorSettings, Roulette};
 use crate::render::{RenderOutput, RenderSettings};
 use serde::Serialize;
 use std::path::Path;

@@ -1,6 +1,10 @@
-//! The one settings resolver: what a render uses, from a scene's defaults
-//! and the command line's flags, checked against the limits of
-//! [`crate::limits`] in one place.
+//! What a render runs with: the estimator's settings
+//! ([`IntegratorSettings`], with its [`DirectStrategy`] and [`Roulette`]),
+//! the defaults a scene file may set ([`RenderDefaults`]), and the one
+//! resolver that merges those defaults with the command line's flags,
+//! checked against the limits of [`crate::limits`] in one place. The scene
+//! stores its defaults and the integrator reads its settings from here, so
+//! neither imports the other for them.
 //!
 //! Every command that renders or plans a render (`render`, `study`, `bench
 //! --effects` and `--efficiency`, `parity`'s image, `plan`) calls
@@ -12,9 +16,143 @@
 //! wrote it (`-s 0: ...`).
 
 use crate::error::{Error, Result};
-use crate::integrator::{DirectStrategy, IntegratorSettings, Roulette};
 use crate::limits::{self, MAX_RESOLUTION};
-use crate::scene::RenderDefaults;
+use std::fmt;
+use std::str::FromStr;
+
+/// Which direct-lighting strategy to use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DirectStrategy {
+    /// Light and BSDF sampling combined by MIS.
+    Mis,
+    /// Light sampling only.
+    Light,
+    /// BSDF sampling only.
+    Bsdf,
+}
+
+impl FromStr for DirectStrategy {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "mis" => Ok(DirectStrategy::Mis),
+            "light" => Ok(DirectStrategy::Light),
+            "bsdf" => Ok(DirectStrategy::Bsdf),
+            _ => Err(format!(
+                "unknown direct strategy `{s}` (expected mis, light or bsdf)"
+            )),
+        }
+    }
+}
+
+impl fmt::Display for DirectStrategy {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            DirectStrategy::Mis => "mis",
+            DirectStrategy::Light => "light",
+            DirectStrategy::Bsdf => "bsdf",
+        })
+    }
+}
+
+/// Russian roulette policy.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Roulette {
+    /// Continue with probability `min(1, max component of the throughput)`.
+    Throughput,
+    /// Continue with a fixed probability in `[0, 1]`.
+    Fixed(f32),
+}
+
+/// Estimator settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IntegratorSettings {
+    /// Maximum number of bounces.
+    pub max_depth: u32,
+    /// Light samples per shading point (at least 1 when light sampling is used).
+    pub light_samples: u32,
+    /// Direct-lighting strategy.
+    pub direct: DirectStrategy,
+    /// Russian roulette policy.
+    pub roulette: Roulette,
+    /// First bounce at which roulette may end a path.
+    pub rr_depth: u32,
+}
+
+impl Default for IntegratorSettings {
+    fn default() -> Self {
+        IntegratorSettings {
+            max_depth: 64,
+            light_samples: 1,
+            direct: DirectStrategy::Mis,
+            roulette: Roulette::Throughput,
+            rr_depth: 3,
+        }
+    }
+}
+
+/// Render settings a scene file may set; command-line flags override them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RenderDefaults {
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Maximum path length in bounces.
+    pub max_depth: u32,
+    /// Light samples per shading point.
+    pub light_samples: u32,
+    /// Random seed.
+    pub seed: u64,
+    /// First bounce at which Russian roulette may end a path.
+    pub rr_depth: u32,
+    /// Direct-lighting strategy (`--direct`).
+    pub direct: DirectStrategy,
+    /// Russian roulette policy (`--rr`).
+    pub roulette: Roulette,
+    /// Set for scenes whose own renderer counts `-l` per light (CS184's
+    /// `.dae`): see [`RenderDefaults::light_samples_for`].
+    pub per_light: Option<LightCount>,
+}
+
+/// The lights a per-light `-l` loops over, as the CS184 course's
+/// direct-lighting estimator does: `l` samples from each non-delta light
+/// (area or ambient) and one from each delta light (point, directional).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LightCount {
+    /// Lights sampled `l` times each.
+    pub sampled: u32,
+    /// Lights sampled once each.
+    pub delta: u32,
+}
+
+impl RenderDefaults {
+    /// Light samples per shading point for a `-l` value (`None`: the
+    /// scene's own). Per shading point unless the scene counts per light;
+    /// then `-l l` gives the course's total, `l * sampled + delta`, which
+    /// this renderer spends on lights chosen by power (with one area light,
+    /// exactly the course's estimator).
+    pub fn light_samples_for(&self, l: Option<u32>) -> u64 {
+        match (l, self.per_light) {
+            (None, _) => self.light_samples as u64,
+            (Some(l), None) => l.max(1) as u64,
+            (Some(l), Some(c)) => (l.max(1) as u64 * c.sampled as u64 + c.delta as u64).max(1),
+        }
+    }
+}
+
+impl Default for RenderDefaults {
+    fn default() -> Self {
+        RenderDefaults {
+            spp: 64,
+            max_depth: 64,
+            light_samples: 1,
+            seed: 0,
+            rr_depth: 3,
+            direct: DirectStrategy::Mis,
+            roulette: Roulette::Throughput,
+            per_light: None,
+        }
+    }
+}
 
 /// Tile side in pixels when a command does not say (`render --tile-size`'s
 /// default).
@@ -285,7 +423,7 @@ mod tests {
         assert!(err(side).starts_with("--image 40000: "));
         // a per-light scene: `-l 0` does not become its delta lights' count
         let per_light = RenderDefaults {
-            per_light: Some(crate::scene::LightCount {
+            per_light: Some(LightCount {
                 sampled: 1,
                 delta: 2,
             }),

@@ -7,10 +7,11 @@ mod common;
 
 use common::{MeshMaker, batch_means, lambert_form_factor, sidak_z};
 use embertrace::accel::{self, AccelOptions, Backend};
-use embertrace::integrator::{DirectStrategy, IntegratorSettings, PathTracer, RayCounts, Roulette};
+use embertrace::integrator::{PathTracer, RayCounts};
 use embertrace::math::{Ray, Vec3};
 use embertrace::sampler::Sampler;
 use embertrace::scene::Scene;
+use embertrace::settings::{DirectStrategy, IntegratorSettings, Roulette};
 
 fn tracer_settings(
     max_depth: u32,

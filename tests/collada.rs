@@ -7,11 +7,12 @@
 
 use embertrace::accel::{self, AccelOptions, Backend};
 use embertrace::bsdf::{Bsdf, Distribution};
-use embertrace::integrator::{IntegratorSettings, PathTracer};
+use embertrace::integrator::PathTracer;
 use embertrace::math::Vec3;
 use embertrace::render::{RenderSettings, render};
 use embertrace::sampler::SamplerKind;
-use embertrace::scene::{LightCount, Scene};
+use embertrace::scene::Scene;
+use embertrace::settings::{IntegratorSettings, LightCount};
 use std::path::Path;
 
 /// A scene: `up` axis, `extra` library elements, and visual-scene `nodes`.

@@ -5,10 +5,11 @@
 
 use embertrace::accel::{self, AccelOptions, Backend};
 use embertrace::convert::convert;
-use embertrace::integrator::{IntegratorSettings, PathTracer};
+use embertrace::integrator::PathTracer;
 use embertrace::render::{RenderSettings, render};
 use embertrace::sampler::SamplerKind;
-use embertrace::scene::{RenderDefaults, Scene};
+use embertrace::scene::Scene;
+use embertrace::settings::{IntegratorSettings, RenderDefaults};
 use std::path::Path;
 
 fn image(scene: &Scene) -> Vec<f32> {

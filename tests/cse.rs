@@ -5,11 +5,12 @@
 
 use embertrace::accel::{self, AccelOptions, Backend};
 use embertrace::bsdf::{Bsdf, Lobe};
-use embertrace::integrator::{DirectStrategy, IntegratorSettings, PathTracer, Roulette};
+use embertrace::integrator::PathTracer;
 use embertrace::math::Vec3;
 use embertrace::render::{RenderSettings, render};
 use embertrace::sampler::SamplerKind;
 use embertrace::scene::Scene;
+use embertrace::settings::{DirectStrategy, IntegratorSettings, Roulette};
 use std::path::Path;
 
 mod common;

@@ -17,13 +17,14 @@ mod common;
 
 use common::batch_means;
 use embertrace::accel::{self, AccelOptions, Backend};
-use embertrace::integrator::{DirectStrategy, IntegratorSettings, Kernel, PathTracer};
+use embertrace::integrator::{Kernel, PathTracer};
 use embertrace::light::EnvironmentMap;
 use embertrace::math::Vec3;
 use embertrace::plan::Plan;
 use embertrace::render::{RenderOutput, RenderSettings, render};
 use embertrace::sampler::SamplerKind;
 use embertrace::scene::Scene;
+use embertrace::settings::{DirectStrategy, IntegratorSettings};
 use embertrace::texture::ImageTexture;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};

@@ -387,8 +387,9 @@ fn load_bounded(path: &Path) -> Outcome {
 /// more than 100 000 primitives are only loaded.
 fn render_tiny(scene: Scene) {
     use embertrace::accel::{self, AccelOptions, Backend};
-    use embertrace::integrator::{IntegratorSettings, PathTracer};
+    use embertrace::integrator::PathTracer;
     use embertrace::render::{RenderSettings, render};
+    use embertrace::settings::IntegratorSettings;
     if scene.primitive_count() > 100_000 {
         return;
     }

@@ -6,13 +6,14 @@
 use embertrace::accel::{self, AccelOptions, Backend};
 use embertrace::camera::Camera;
 use embertrace::film::Film;
-use embertrace::integrator::{IntegratorSettings, PathTracer};
+use embertrace::integrator::PathTracer;
 use embertrace::progressive::{
     Adaptive, Budget, PassRecord, ProgressiveOutput, StopReason, relative_error, render_progressive,
 };
 use embertrace::render::{RenderSettings, render};
 use embertrace::sampler::SamplerKind;
 use embertrace::scene::Scene;
+use embertrace::settings::IntegratorSettings;
 use std::path::Path;
 use std::process::Command;
 

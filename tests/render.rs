@@ -8,11 +8,12 @@ mod common;
 use common::sidak_z;
 use embertrace::accel::{self, AccelOptions, Accelerator, Backend};
 use embertrace::camera::Camera;
-use embertrace::integrator::{DirectStrategy, IntegratorSettings, PathTracer};
+use embertrace::integrator::PathTracer;
 use embertrace::math::{Ray, Vec2, Vec3};
 use embertrace::render::{RenderOutput, RenderSettings, render};
 use embertrace::sampler::{Sampler, SamplerKind};
 use embertrace::scene::Scene;
+use embertrace::settings::{DirectStrategy, IntegratorSettings};
 use std::path::Path;
 
 fn cornell() -> Scene {

@@ -16,10 +16,11 @@
 use embertrace::accel::{self, AccelOptions, Backend};
 use embertrace::camera::Camera;
 use embertrace::film::Film;
-use embertrace::integrator::{IntegratorSettings, PathTracer};
+use embertrace::integrator::PathTracer;
 use embertrace::render::{RenderSettings, render};
 use embertrace::sampler::SamplerKind;
 use embertrace::scene::Scene;
+use embertrace::settings::IntegratorSettings;
 
 const RES: u32 = 24;
 const BLOCK: u32 = 6;

@@ -20,12 +20,13 @@
 //! from its single-ray kernel (`tests/conformance.rs`), which is why the
 //! batches are fixed.
 
-use super::{DirectStrategy, PathTracer, RayCounts, Roulette};
+use super::{PathTracer, RayCounts};
 use crate::accel::{Coherence, Hit};
 use crate::bsdf::{Bsdf, Bxdf, Diffuse, Phong};
 use crate::math::{Frame, Ray, SurfacePoint, Vec3, gamma, spawn_ray};
 use crate::sampler::Sampler;
 use crate::sampling::power_heuristic;
+use crate::settings::{DirectStrategy, Roulette};
 
 /// Paths traced together: a 4 x 4 block of pixels, the width of Embree's
 /// widest packet.

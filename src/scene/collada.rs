@@ -37,19 +37,20 @@
 //!   `aspect_ratio`) fixes a focal length in pixels for an 800 x 600 window
 //!   that `-r` then keeps, so the field of view follows the image height.
 //! - **`-l`** counts samples per area light, as the course's
-//!   `ns_area_light` does ([`super::RenderDefaults::light_samples_for`]);
+//!   `ns_area_light` does ([`crate::settings::RenderDefaults::light_samples_for`]);
 //!   the course's defaults are 1 sample per pixel, 1 bounce and `-l 1`.
 //!
 //! Unsupported elements (`spot` lights, other cameras, `<lines>`, ...) are
 //! warnings naming the element and line; malformed ones are errors naming
 //! the file and line.
 
-use super::{LightCount, Material, MeshData, Scene, SceneBuilder, WorldCamera};
+use super::{Material, MeshData, Scene, SceneBuilder, WorldCamera};
 use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Mirror};
 use crate::error::{Error, Result, one_line};
 use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
 use crate::limits::{self, MAX_COORDINATE};
 use crate::math::Vec3;
+use crate::settings::LightCount;
 use crate::texture::ImageTexture;
 use glam::{DAffine3, DMat3, DMat4, DVec3};
 use roxmltree::{Document, Node};

@@ -52,10 +52,10 @@
 use super::{Material, MeshData, Scene, SceneBuilder, WorldCamera};
 use crate::bsdf::{Bsdf, Diffuse, Lobe, Microfacet, Phong};
 use crate::error::{Error, Result};
-use crate::integrator::{DirectStrategy, Roulette};
 use crate::light::{DirectionalLight, PointLight};
 use crate::limits::{self, MAX_DEPTH};
 use crate::math::Vec3;
+use crate::settings::{DirectStrategy, Roulette};
 use glam::{DAffine3, DMat3, DQuat, DVec3};
 use std::f32::consts::PI;
 use std::path::Path;

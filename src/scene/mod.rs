@@ -18,10 +18,10 @@ use crate::accel::Hit;
 use crate::bsdf::{Bsdf, Diffuse};
 use crate::camera::{Camera, ThinLens};
 use crate::error::{Error, Result};
-use crate::integrator::{DirectStrategy, Roulette};
 use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
 use crate::limits::{MAX_COORDINATE, MAX_SCENE_FILE_BYTES, MAX_TRIANGLES, MAX_VERTICES};
 use crate::math::{DVec3, Ray, SurfacePoint, Vec2, Vec3, needle_factor, triangle_normal};
+use crate::settings::RenderDefaults;
 use crate::shape::Sphere;
 use crate::texture::ImageTexture;
 use glam::DAffine3;
@@ -112,69 +112,6 @@ pub struct CameraDesc {
 /// on an image `height` pixels high.
 fn fov_for_focal(f: f32, height: u32) -> f32 {
     2.0 * (height as f32 / (2.0 * f)).atan().to_degrees()
-}
-
-/// Render settings a scene file may set; command-line flags override them.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RenderDefaults {
-    /// Samples per pixel.
-    pub spp: u32,
-    /// Maximum path length in bounces.
-    pub max_depth: u32,
-    /// Light samples per shading point.
-    pub light_samples: u32,
-    /// Random seed.
-    pub seed: u64,
-    /// First bounce at which Russian roulette may end a path.
-    pub rr_depth: u32,
-    /// Direct-lighting strategy (`--direct`).
-    pub direct: DirectStrategy,
-    /// Russian roulette policy (`--rr`).
-    pub roulette: Roulette,
-    /// Set for scenes whose own renderer counts `-l` per light (CS184's
-    /// `.dae`): see [`RenderDefaults::light_samples_for`].
-    pub per_light: Option<LightCount>,
-}
-
-/// The lights a per-light `-l` loops over, as the CS184 course's
-/// direct-lighting estimator does: `l` samples from each non-delta light
-/// (area or ambient) and one from each delta light (point, directional).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct LightCount {
-    /// Lights sampled `l` times each.
-    pub sampled: u32,
-    /// Lights sampled once each.
-    pub delta: u32,
-}
-
-impl RenderDefaults {
-    /// Light samples per shading point for a `-l` value (`None`: the
-    /// scene's own). Per shading point unless the scene counts per light;
-    /// then `-l l` gives the course's total, `l * sampled + delta`, which
-    /// this renderer spends on lights chosen by power (with one area light,
-    /// exactly the course's estimator).
-    pub fn light_samples_for(&self, l: Option<u32>) -> u64 {
-        match (l, self.per_light) {
-            (None, _) => self.light_samples as u64,
-            (Some(l), None) => l.max(1) as u64,
-            (Some(l), Some(c)) => (l.max(1) as u64 * c.sampled as u64 + c.delta as u64).max(1),
-        }
-    }
-}
-
-impl Default for RenderDefaults {
-    fn default() -> Self {
-        RenderDefaults {
-            spp: 64,
-            max_depth: 64,
-            light_samples: 1,
-            seed: 0,
-            rr_depth: 3,
-            direct: DirectStrategy::Mis,
-            roulette: Roulette::Throughput,
-            per_light: None,
-        }
-    }
 }
 
 /// Where one mesh's triangles sit in the flat arrays (for messages).

@@ -36,18 +36,17 @@
 
 use super::procedural::{self, Shape};
 use super::{
-    Material, MeshData, RenderDefaults, Scene, SceneBuilder, Transform, WorldCamera, load_obj_mesh,
-    load_ply_mesh,
+    Material, MeshData, Scene, SceneBuilder, Transform, WorldCamera, load_obj_mesh, load_ply_mesh,
 };
 use crate::bsdf::{
     Bsdf, Conductor, Diffuse, Distribution, Glass, Lobe, Microfacet, Mirror, Phong, Plastic,
 };
 use crate::camera::ThinLens;
 use crate::error::{Error, Result};
-use crate::integrator::Roulette;
 use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
 use crate::limits::{self, MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
 use crate::math::{DVec3, Vec3};
+use crate::settings::{RenderDefaults, Roulette};
 use crate::texture::ImageTexture;
 use serde::Deserialize;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
