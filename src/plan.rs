@@ -11,13 +11,93 @@
 //! black on a miss at once, a pinhole camera never draws a lens sample.
 //! `--plan general` runs [`Kernel::GENERAL`] instead: same image bits,
 //! possibly more time (tested on every bundled scene and backend).
+//!
+//! The plan decides the kernel and the integrator runs it: the integrator
+//! imports this module, never the other way round.
 
 use crate::bsdf::Bxdf;
-use crate::integrator::Kernel;
 use crate::scene::Scene;
 use crate::settings::IntegratorSettings;
 use std::fmt::Write;
 use std::str::FromStr;
+
+/// The effects an estimator kernel is compiled for. Each flag switches code
+/// on at compile time: a kernel whose flag is off has no branch, call or
+/// table lookup for that effect. The general kernel (every flag on) checks
+/// each effect per shading point instead; on a scene without the effect those
+/// checks take the branch the specialised kernel compiled, with the same
+/// arithmetic in the same order, so both give the same bits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct Kernel {
+    /// Material dispatch (mirror, glass, conductor, plastic) and textures;
+    /// off: every surface is a Lambertian with a per-material albedo.
+    pub materials: bool,
+    /// Delta lights or delta BSDF lobes; off: no delta checks, every sample
+    /// has a density and MIS applies to all of them.
+    pub delta: bool,
+    /// Environment lighting; off: an escaping ray returns black at once.
+    pub environment: bool,
+    /// Emissive surfaces (area lights); off: a hit is never looked up for
+    /// emission and, with no environment either, no MIS weight is computed.
+    pub emitters: bool,
+    /// Spheres or smooth normals; off: every hit is a flat-shaded triangle.
+    pub shapes: bool,
+    /// A thin-lens camera; off: camera rays come from the pinhole, with no
+    /// lens sample drawn.
+    pub lens: bool,
+}
+
+impl Kernel {
+    /// Every effect on: the fully general kernel (`--plan general`).
+    pub const GENERAL: Kernel = Kernel {
+        materials: true,
+        delta: true,
+        environment: true,
+        emitters: true,
+        shapes: true,
+        lens: true,
+    };
+
+    /// What a kernel without each flag leaves out, for the flags that are off.
+    pub fn omitted(&self) -> Vec<&'static str> {
+        [
+            (
+                self.materials,
+                "material dispatch, Fresnel and texture code",
+            ),
+            (self.delta, "delta-lobe and delta-light checks"),
+            (self.environment, "environment lookups on escape"),
+            (self.emitters, "emission lookups at hits"),
+            (self.shapes, "sphere and smooth-normal shading"),
+            (self.lens, "lens sampling"),
+        ]
+        .iter()
+        .filter(|(on, _)| !on)
+        .map(|(_, what)| *what)
+        .collect()
+    }
+
+    /// The flags as a short string, e.g. `materials+delta`, or `minimal`.
+    pub fn describe(&self) -> String {
+        let on: Vec<&str> = [
+            ("materials", self.materials),
+            ("delta", self.delta),
+            ("environment", self.environment),
+            ("emitters", self.emitters),
+            ("shapes", self.shapes),
+            ("lens", self.lens),
+        ]
+        .iter()
+        .filter(|(_, f)| *f)
+        .map(|(n, _)| *n)
+        .collect();
+        if on.is_empty() {
+            "minimal".to_string()
+        } else {
+            on.join("+")
+        }
+    }
+}
 
 /// The effect names, in the order `plan` lists them. These names are fixed:
 /// scripts read them from `plan --json` and from the render report.

@@ -17,10 +17,10 @@ mod common;
 
 use common::batch_means;
 use embertrace::accel::{self, AccelOptions, Backend};
-use embertrace::integrator::{Kernel, PathTracer};
+use embertrace::integrator::PathTracer;
 use embertrace::light::EnvironmentMap;
 use embertrace::math::Vec3;
-use embertrace::plan::Plan;
+use embertrace::plan::{Kernel, Plan};
 use embertrace::render::{RenderOutput, RenderSettings, render};
 use embertrace::sampler::SamplerKind;
 use embertrace::scene::Scene;
