@@ -13,15 +13,15 @@
 //! is the median of the repetitions. The goal: at most 2 % of a sample.
 
 use embertrace::accel::{self, AccelOptions, Backend};
-use embertrace::bench::median;
 use embertrace::camera::Camera;
+use embertrace::commands::bench::median;
 use embertrace::film::{Tile, TileBounds};
 use embertrace::integrator::PathTracer;
-use embertrace::settings::IntegratorSettings;
 use embertrace::math::Vec3;
 use embertrace::render::{RenderSettings, render};
 use embertrace::sampler::SamplerKind;
 use embertrace::scene::Scene;
+use embertrace::settings::IntegratorSettings;
 use std::hint::black_box;
 use std::process::ExitCode;
 use std::time::Instant;

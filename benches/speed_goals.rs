@@ -10,12 +10,12 @@
 //! Embree's for camera, shadow and diffuse rays; a build no slower than
 //! Embree's ([`MAX_BUILD_RATIO`]); at most [`MAX_BYTES_PER_TRIANGLE`] bytes
 //! per triangle. Both backends run in robust mode with their default
-//! builds, in one process, taking turns (see `embertrace::bench`); each
+//! builds, in one process, taking turns (see `embertrace::commands::bench`); each
 //! ratio is the median of back-to-back ratios. Prints `embertrace bench`'s
 //! table, then one line per goal, and exits non-zero if a goal is missed.
 
 use embertrace::accel::{AccelOptions, Backend};
-use embertrace::bench::{self, BenchSettings};
+use embertrace::commands::bench::throughput::{self as bench, BenchSettings};
 use embertrace::scene::Scene;
 use std::process::ExitCode;
 

@@ -4,7 +4,7 @@
 //! output paths are refused before anything is written.
 
 use embertrace::accel::{self, AccelOptions, Backend};
-use embertrace::convert::convert;
+use embertrace::commands::convert::convert;
 use embertrace::integrator::PathTracer;
 use embertrace::render::{RenderSettings, render};
 use embertrace::sampler::SamplerKind;

@@ -507,7 +507,7 @@ fn a_point_light_too_strong_for_f32_power_still_lights() {
             "{}",
             String::from_utf8_lossy(&out.stderr)
         );
-        let img = embertrace::diff::Image::read(&dir.join("x.pfm")).unwrap();
+        let img = embertrace::commands::diff::Image::read(&dir.join("x.pfm")).unwrap();
         img.rgb.iter().map(|&v| v as f64).sum::<f64>() / img.rgb.len() as f64
     };
     // the floor fills the view, lit from straight above at distance 97:

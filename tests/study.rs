@@ -85,7 +85,7 @@ fn study_folder_is_complete_and_consistent() {
     assert!(rel(0) > 3.0 * rel(2), "{csv}");
     // one curve per setting, in the palette's first four colours
     let plot = image::open(st.join("error-vs-time.png")).unwrap().to_rgb8();
-    for c in &embertrace::plot::PALETTE[..4] {
+    for c in &embertrace::commands::study::plot::PALETTE[..4] {
         assert!(plot.pixels().any(|p| p.0 == *c), "no curve in {c:?}");
     }
     let md = std::fs::read_to_string(st.join("study.md")).unwrap();

@@ -28,14 +28,14 @@
 
 use crate::accel::triangle::distance_error_bound;
 use crate::accel::{self, AccelOptions, Accelerator, Backend, Hit};
+use crate::commands::raysets::{self, RayKind};
 use crate::error::{Error, Result};
 use crate::integrator::PathTracer;
-use crate::settings::IntegratorSettings;
 use crate::math::{Ray, Vec3, gamma, triangle_normal};
-use crate::raysets::{self, RayKind};
 use crate::render::{RenderSettings, render};
 use crate::sampler::SamplerKind;
 use crate::scene::Scene;
+use crate::settings::IntegratorSettings;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;

@@ -11,15 +11,15 @@
 //! renderer could get without tracing rays faster. Both figures are the
 //! median over the repetitions, measured on the same thread.
 
+use super::throughput::median;
 use crate::accel::{self, AccelOptions, Accelerator, Backend, Coherence, Hit};
-use crate::bench::median;
 use crate::error::Result;
 use crate::integrator::{PathTracer, RayCounts};
-use crate::settings::IntegratorSettings;
 use crate::math::Ray;
 use crate::render::{RenderSettings, render};
 use crate::sampler::SamplerKind;
 use crate::scene::Scene;
+use crate::settings::IntegratorSettings;
 use serde::Serialize;
 use std::sync::Mutex;
 use std::time::Instant;

@@ -10,20 +10,20 @@
 //! sample (render seconds over pixels times spp), Mrays/s, and the ratio to
 //! the first row.
 
+use super::throughput::median;
 use crate::accel::{self, AccelOptions, Backend};
-use crate::shape::Sphere;
-use crate::bench::median;
 use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Mirror};
 use crate::camera::ThinLens;
 use crate::error::Result;
 use crate::integrator::PathTracer;
-use crate::settings::IntegratorSettings;
 use crate::light::EnvironmentMap;
 use crate::math::Vec3;
 use crate::plan::{Kernel, Plan};
 use crate::render::{RenderSettings, render};
 use crate::sampler::SamplerKind;
 use crate::scene::{Material, Scene};
+use crate::settings::IntegratorSettings;
+use crate::shape::Sphere;
 use crate::texture::ImageTexture;
 use serde::Serialize;
 use std::fmt::Write;

@@ -12,8 +12,8 @@
 //! medians.
 
 use crate::accel::{self, AccelOptions, Accelerator, Backend};
+use crate::commands::raysets::{self, RayKind, RaySet};
 use crate::error::{Error, Result};
-use crate::raysets::{self, RayKind, RaySet};
 use crate::scene::Scene;
 use rayon::prelude::*;
 use serde::Serialize;

@@ -5,7 +5,7 @@
 //! every combination is rendered (at most [`MAX_SETTINGS`]). Every setting is
 //! rendered progressively (1, 2, 4, ... samples per pixel up to its spp,
 //! [`crate::progressive`]), and after each pass the image is compared with a
-//! reference ([`crate::diff`]): that gives its error-against-time curve.
+//! reference ([`crate::commands::diff`]): that gives its error-against-time curve.
 //! Settings render one after another, each on all threads, so their times
 //! compare.
 //!
@@ -18,18 +18,18 @@
 //! Outputs in `DIR`: `study.csv`, `error-vs-time.png`, `contact-sheet.png`,
 //! `study.md`, and each setting's final image in `renders/`.
 
+use super::plot::{Series, contact_sheet, log_log_plot};
 use crate::accel::{self, AccelOptions, Accelerator, Backend};
-use crate::diff::{Image, compare};
+use crate::commands::diff::{Image, compare};
 use crate::error::{Error, Result};
 use crate::film::{self, Film, OutputOptions, write_file_atomically};
 use crate::integrator::PathTracer;
-use crate::settings::{DirectStrategy, IntegratorSettings, Roulette};
-use crate::plot::{Series, contact_sheet, log_log_plot};
 use crate::progressive::{Budget, render_progressive};
 use crate::render::RenderSettings;
 use crate::sampler::SamplerKind;
 use crate::scene::Scene;
 use crate::settings;
+use crate::settings::{DirectStrategy, IntegratorSettings, Roulette};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

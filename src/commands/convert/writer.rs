@@ -27,9 +27,9 @@
 use crate::bsdf::{Bsdf, Distribution, Lobe};
 use crate::error::{Error, Result};
 use crate::film::{self, OutputOptions};
-use crate::settings::{DirectStrategy, Roulette};
 use crate::math::Vec3;
 use crate::scene::{Material, Scene};
+use crate::settings::{DirectStrategy, Roulette};
 use crate::texture::ImageTexture;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};

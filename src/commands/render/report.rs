@@ -2,8 +2,8 @@
 //! from it. Field names are fixed: other scripts read them.
 
 use crate::error::{Error, Result};
-use crate::settings::{IntegratorSettings, Roulette};
 use crate::render::{RenderOutput, RenderSettings};
+use crate::settings::{IntegratorSettings, Roulette};
 use serde::Serialize;
 use std::path::Path;
 

@@ -1,0 +1,679 @@
+//! `embertrace render`: a scene to an image, with its report
+//! ([`report`]), sample maps, variance, and the farm's parts (shards, crops,
+//! checkpoints).
+
+pub mod report;
+
+use super::{BuildArgs, check_exr, write_json, write_variance};
+use crate::accel::{self, Backend};
+use crate::commands::diff::{Image, compare};
+use crate::error::clip;
+use crate::error::{Error, Result};
+use crate::farm::{self, Shard};
+use crate::film::{self, OutputOptions};
+use crate::integrator::PathTracer;
+use crate::outputs::{self, Inputs};
+use crate::plan::{Plan, PlanMode};
+use crate::progressive::{Adaptive, Budget, CONFIDENCE, PassRecord, render_progressive};
+use crate::render::{self, RenderSettings};
+use crate::sampler::SamplerKind;
+use crate::scene::Scene;
+use crate::settings::{self, Flags};
+use crate::settings::{DirectStrategy, IntegratorSettings, Roulette};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use report::{ErrorEstimate, ProgressiveReport, RenderReport};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// The arguments of `embertrace render`.
+#[derive(Args)]
+pub struct RenderArgs {
+    /// Scene file: .toml, .obj, .ply, Mitsuba 3 .xml, CS184 .dae or CSE 167/168 .test.
+    scene: PathBuf,
+    /// Output image; the extension picks the format (.png, .exr, .pfm).
+    #[arg(short = 'o', long = "output", visible_short_alias = 'f')]
+    output: Option<PathBuf>,
+    /// Samples per pixel [scene default, else 64].
+    #[arg(short = 's', long = "spp", allow_negative_numbers = true)]
+    spp: Option<u32>,
+    /// Light samples per shading point; for a CS184 .dae scene, samples per
+    /// area light as the course counts them [scene default, else 1].
+    #[arg(short = 'l', long = "light-samples", allow_negative_numbers = true)]
+    light_samples: Option<u32>,
+    /// Maximum bounces: 0 = emission only, 1 = direct only [scene default, else 64].
+    #[arg(short = 'm', long = "max-depth", allow_negative_numbers = true)]
+    max_depth: Option<u32>,
+    /// Resolution: width height [scene default].
+    #[arg(short = 'r', long = "resolution", num_args = 2, value_names = ["W", "H"], allow_negative_numbers = true)]
+    resolution: Option<Vec<u32>>,
+    /// Render threads; 0 = all cores.
+    #[arg(
+        short = 't',
+        long = "threads",
+        default_value_t = 0,
+        allow_negative_numbers = true
+    )]
+    threads: usize,
+    /// Random seed [scene default, else 0].
+    #[arg(long, allow_negative_numbers = true)]
+    seed: Option<u64>,
+    /// Sample generator: sobol (padded, Owen-scrambled Sobol points: the
+    /// least error per unit of time), zsobol (the same along a Morton curve:
+    /// blue-noise error, dearer per sample) or independent (PCG32).
+    #[arg(long, default_value_t = SamplerKind::default())]
+    sampler: SamplerKind,
+    /// Ray-query backend: embree or naive [embree when compiled in].
+    #[arg(long)]
+    accel: Option<Backend>,
+    /// Direct lighting: mis, light or bsdf [scene default, else mis].
+    #[arg(long)]
+    direct: Option<DirectStrategy>,
+    /// Estimator kernel: specialised (for the scene's effects, see
+    /// `embertrace plan`) or general (every effect compiled in; same image).
+    #[arg(long, default_value = "specialised")]
+    plan: PlanMode,
+    /// Fixed Russian-roulette continuation probability in [0, 1]
+    /// [default: throughput-based].
+    #[arg(long = "rr", value_name = "P", allow_negative_numbers = true)]
+    rr: Option<f32>,
+    /// First bounce at which Russian roulette may end a path [default: the
+    /// scene's, 3 unless it says].
+    #[arg(long = "rr-depth", allow_negative_numbers = true)]
+    rr_depth: Option<u32>,
+    /// Write a JSON report of the run.
+    #[arg(long, value_name = "FILE")]
+    report: Option<PathBuf>,
+    /// Exposure in stops, applied to PNG output.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    #[command(flatten)]
+    build: BuildArgs,
+    /// Tile side in pixels.
+    #[arg(long, default_value_t = 16, allow_negative_numbers = true)]
+    tile_size: u32,
+    /// Fail (non-zero exit, no image) if any sample is NaN, infinite or negative.
+    #[arg(long)]
+    strict: bool,
+    /// Write where NaN, infinite or negative samples were: PNG (black where
+    /// none, brighter red for more) or EXR/PFM (the count per pixel).
+    #[arg(long, value_name = "FILE")]
+    aov: Option<PathBuf>,
+    /// Scale every sample down so that no component exceeds MAX (biased:
+    /// the report states the energy removed) [default: no clamp].
+    #[arg(long, value_name = "MAX", allow_negative_numbers = true)]
+    clamp: Option<f32>,
+    /// Print nothing but errors.
+    #[arg(short = 'q', long)]
+    quiet: bool,
+    /// Stop after the pass that reaches this many seconds of rendering
+    /// (-s, if given, still caps the samples per pixel).
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    time_limit: Option<f64>,
+    /// Stop when the estimated relative error of the image (95 %
+    /// confidence) is at most E.
+    #[arg(long, value_name = "E", allow_negative_numbers = true)]
+    target_error: Option<f64>,
+    /// Adaptive sampling: every BATCH samples, stop sampling a pixel whose
+    /// 95 % confidence interval is within TOL of its mean (-s is the most).
+    #[arg(short = 'a', num_args = 2, value_names = ["BATCH", "TOL"], allow_negative_numbers = true)]
+    adaptive: Option<Vec<f64>>,
+    /// Write where the samples went (samples per pixel, false colour) as PNG.
+    #[arg(long, value_name = "FILE")]
+    sample_map: Option<PathBuf>,
+    /// A reference image (.exr or .pfm) for --convergence.
+    #[arg(long, value_name = "FILE")]
+    reference: Option<PathBuf>,
+    /// After every pass, log seconds, spp, rays, RMSE and relative MSE
+    /// against --reference to this CSV file (passes double the spp).
+    #[arg(long, value_name = "FILE")]
+    convergence: Option<PathBuf>,
+    /// Render the K-th of N equal parts of every pixel's samples; -o then
+    /// writes an accumulation file (.exr) for `embertrace merge`.
+    #[arg(long, value_name = "K/N", value_parser = Shard::parse)]
+    shard: Option<Shard>,
+    /// Render only the pixels [X0, X1) x [Y0, Y1) (origin top left); -o then
+    /// writes an accumulation file (.exr) for `embertrace merge`.
+    #[arg(long, num_args = 4, value_names = ["X0", "Y0", "X1", "Y1"], allow_negative_numbers = true)]
+    crop: Option<Vec<u32>>,
+    /// Save the render's state (an accumulation file) to FILE as it goes, at
+    /// the end, and on SIGINT or SIGTERM.
+    #[arg(long, value_name = "FILE")]
+    checkpoint: Option<PathBuf>,
+    /// Seconds between checkpoints.
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 60.0,
+        requires = "checkpoint",
+        allow_negative_numbers = true
+    )]
+    checkpoint_every: f64,
+    /// Continue the render saved in FILE to -s samples per pixel (it keeps
+    /// saving to FILE unless --checkpoint names another).
+    #[arg(long, value_name = "FILE")]
+    resume: Option<PathBuf>,
+    /// Write the per-pixel variance of the mean, per channel, as EXR.
+    #[arg(long, value_name = "FILE")]
+    variance: Option<PathBuf>,
+}
+
+/// Samples per pixel at most when a time or error budget is given without -s.
+const BUDGET_MAX_SPP: u32 = 1 << 20;
+
+/// Run `embertrace render`.
+pub fn run(args: RenderArgs) -> Result<()> {
+    let output = args.output.clone().unwrap_or_else(|| {
+        let stem = args.scene.file_stem().unwrap_or_default().to_string_lossy();
+        PathBuf::from(format!("{stem}.png"))
+    });
+    // every file the render writes; a resumed render saves to its --resume
+    // file unless --checkpoint names another
+    let written: Vec<outputs::Output<'_>> = [
+        ("-o", Some(&output)),
+        ("--report", args.report.as_ref()),
+        ("--aov", args.aov.as_ref()),
+        ("--sample-map", args.sample_map.as_ref()),
+        ("--convergence", args.convergence.as_ref()),
+        ("--checkpoint", args.checkpoint.as_ref()),
+        (
+            "--resume",
+            args.resume.as_ref().filter(|_| args.checkpoint.is_none()),
+        ),
+        ("--variance", args.variance.as_ref()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, path)| Some((flag, path?.as_path())))
+    .collect();
+    outputs::check_distinct(&written)?;
+    film::check_output_path(&output)?;
+    if let Some(r) = &args.report {
+        crate::commands::render::report::check_report_path(r)?;
+    }
+    let say = |msg: &str| {
+        if !args.quiet {
+            eprintln!("{msg}");
+        }
+    };
+    let adaptive = match args.adaptive.as_deref() {
+        None => None,
+        Some(&[batch, tolerance]) => {
+            if !(batch >= 2.0 && batch.fract() == 0.0 && batch <= u32::MAX as f64) {
+                return Err(Error::Settings(format!(
+                    "-a {batch} {tolerance}: the batch must be a whole number of samples, at least 2"
+                )));
+            }
+            Some(Adaptive {
+                batch: batch as u32,
+                tolerance,
+            })
+        }
+        Some(_) => unreachable!("clap takes exactly two values for -a"),
+    };
+    let mut budget = Budget {
+        max_spp: 0,
+        time_limit: args.time_limit,
+        target_error: args.target_error,
+        adaptive,
+    };
+    budget.validate()?;
+    if let Some(p) = &args.aov {
+        film::check_output_path(p)?;
+    }
+    if let Some(c) = args.clamp {
+        if !(c > 0.0 && c.is_finite()) {
+            return Err(Error::Settings(format!(
+                "--clamp must be a positive number, not {c}"
+            )));
+        }
+    }
+    if let Some(p) = &args.sample_map {
+        if !budget.is_progressive() {
+            return Err(Error::Settings(
+                "--sample-map needs adaptive sampling (-a) or a budget: with a fixed spp every pixel gets the same".into(),
+            ));
+        }
+        film::check_output_path(p)?;
+    }
+    if let Some(p) = &args.convergence {
+        crate::commands::render::report::check_report_path(p)?;
+    }
+    if args.convergence.is_some() != args.reference.is_some() {
+        return Err(Error::Settings(
+            "--convergence and --reference go together: the log measures error against the reference".into(),
+        ));
+    }
+    let reference = args.reference.as_deref().map(Image::read).transpose()?;
+    let farm_part = args.shard.is_some() || args.crop.is_some();
+    let farm = farm_part || args.checkpoint.is_some() || args.resume.is_some();
+    if farm {
+        if budget.is_progressive() || args.reference.is_some() || args.sample_map.is_some() {
+            return Err(Error::Settings(
+                "--shard, --crop, --checkpoint and --resume render a fixed spp: they do not combine with --time-limit, --target-error, -a, --reference or --sample-map".into(),
+            ));
+        }
+        if farm_part {
+            check_exr(
+                &output,
+                "-o: --shard and --crop write an accumulation file for `embertrace merge`",
+            )?;
+        }
+        if !(args.checkpoint_every > 0.0 && args.checkpoint_every.is_finite()) {
+            return Err(Error::Settings(format!(
+                "--checkpoint-every {}: expected a positive number of seconds",
+                args.checkpoint_every
+            )));
+        }
+        if let Some(c) = &args.checkpoint {
+            check_exr(c, "--checkpoint: a checkpoint is an accumulation file")?;
+        }
+    }
+    if let Some(v) = &args.variance {
+        check_exr(v, "--variance")?;
+    }
+
+    let t0 = Instant::now();
+    let scene = Scene::load(&args.scene)?;
+    let load_seconds = t0.elapsed().as_secs_f64();
+    let mut inputs = Inputs::of_scene(&scene);
+    if let Some(r) = &args.reference {
+        inputs.add(r, "the --reference image");
+    }
+    if let (Some(r), Some(c)) = (&args.resume, &args.checkpoint) {
+        if !outputs::same_file(r, c) {
+            inputs.add(r, "the render --resume continues");
+        }
+    }
+    outputs::check(&written, &inputs)?;
+
+    // with a time or error budget and no -s, passes go on to BUDGET_MAX_SPP
+    let budget_spp =
+        (budget.time_limit.is_some() || budget.target_error.is_some()).then_some(BUDGET_MAX_SPP);
+    let flags = Flags {
+        spp: args.spp.or(budget_spp),
+        max_depth: args.max_depth,
+        light_samples: args.light_samples,
+        resolution: args.resolution.as_deref().map(|r| [r[0], r[1]]),
+        seed: args.seed,
+        direct: args.direct,
+        rr: args.rr,
+        rr_depth: args.rr_depth,
+        threads: args.threads,
+        tile_size: Some(args.tile_size),
+        ..Flags::default()
+    };
+    let resolved = settings::resolve(&scene.render, scene.resolution, &flags)?;
+    let (resolution, spp, seed, integrator) = (
+        resolved.resolution,
+        resolved.spp,
+        resolved.seed,
+        resolved.integrator,
+    );
+    let [w, h] = resolution;
+    for note in &scene.notes {
+        say(&format!("note: {}", clip(note)));
+    }
+    for warning in &scene.warnings {
+        say(&format!("warning: {}", clip(warning)));
+    }
+    let backend = args.accel.unwrap_or_else(Backend::default_backend);
+
+    let t1 = Instant::now();
+    let accel = accel::build(backend, scene.soup(), args.build.options())?;
+    let accel_build_seconds = t1.elapsed().as_secs_f64();
+
+    let camera = scene.make_camera(w, h);
+    let plan = Plan::new(&scene, &integrator);
+    let kernel = plan.kernel_for(args.plan);
+    let tracer = PathTracer::with_kernel(&scene, accel.as_ref(), integrator, kernel);
+    let settings = RenderSettings {
+        total_spp: None,
+        resolution,
+        spp,
+        first_sample: 0,
+        seed,
+        threads: resolved.threads,
+        tile_size: resolved.tile_size,
+        sampler: args.sampler,
+        clamp: args.clamp,
+    };
+    let side = crate::render::tile_side(settings.tile_size);
+    let tiles = (w.div_ceil(side) * h.div_ceil(side)) as u64;
+    let bar = if std::io::stderr().is_terminal() && !args.quiet {
+        let b = ProgressBar::new(tiles);
+        if let Ok(style) =
+            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent}% eta {eta}")
+        {
+            b.set_style(style.progress_chars("=> "));
+        }
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    say(&format!(
+        "rendering {} ({} triangles) at {w}x{h}, {spp} spp, max depth {}, backend {backend}",
+        args.scene.display(),
+        scene.triangle_count(),
+        integrator.max_depth
+    ));
+    budget.max_spp = spp;
+    let progressive = budget.is_progressive() || reference.is_some();
+    let mut part_provenance = None;
+    let (out, progress) = if farm {
+        bar.finish_and_clear();
+        let provenance = farm::Provenance {
+            version: env!("CARGO_PKG_VERSION").to_string(),
+            scene: args
+                .scene
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            scene_hash: farm::scene_hash(&scene),
+            settings: image_settings(
+                &settings,
+                &integrator,
+                backend,
+                &args.build,
+                &kernel.describe(),
+            ),
+            samples: args.shard.map_or(0..spp, |s| s.samples(spp)),
+            window: match &args.crop {
+                Some(c) => farm::crop_window([c[0], c[1], c[2], c[3]], resolution)?,
+                None => farm::full_window(resolution),
+            },
+        };
+        let out = render_farm(&args, &tracer, &camera, &settings, &provenance, &say)?;
+        // a part, or a checkpointed render's .exr: the state itself (whose
+        // R, G, B are the image), so merge can take it too
+        if farm_part || film::ImageFormat::from_path(&output)? == film::ImageFormat::Exr {
+            part_provenance = Some(provenance);
+        }
+        (out, None)
+    } else if progressive {
+        if let Some(r) = &reference {
+            if (r.width, r.height) != (w, h) {
+                return Err(Error::Settings(format!(
+                    "--reference is {}x{} but the render is {w}x{h}",
+                    r.width, r.height
+                )));
+            }
+        }
+        bar.finish_and_clear();
+        let mut log = String::from("pass,seconds,spp,samples,rays,rmse,rel_mse,relative_error\n");
+        let mut on_pass = |p: &PassRecord, film: &film::Film| -> Result<()> {
+            if let Some(r) = &reference {
+                let img = Image {
+                    width: w,
+                    height: h,
+                    rgb: film.to_rgb_f32(),
+                };
+                let d = compare(
+                    &img,
+                    r,
+                    &args.scene,
+                    args.reference
+                        .as_deref()
+                        .unwrap_or_else(|| std::path::Path::new("")),
+                )?;
+                log += &format!(
+                    "{},{:.6},{},{},{},{:.6e},{:.6e},{:.6e}\n",
+                    p.pass,
+                    p.seconds,
+                    p.spp,
+                    p.samples,
+                    p.rays,
+                    d.rmse,
+                    d.rel_mse,
+                    p.relative_error
+                );
+            }
+            if !args.quiet {
+                eprintln!(
+                    "pass {}: {} spp, {:.2} s, relative error {:.4}, {} pixels active",
+                    p.pass, p.spp, p.seconds, p.relative_error, p.active_pixels
+                );
+            }
+            Ok(())
+        };
+        let po = render_progressive(&tracer, &camera, &settings, &budget, &mut on_pass)?;
+        if let Some(path) = &args.convergence {
+            film::write_file_atomically(path, log.as_bytes())?;
+        }
+        if let Some(path) = &args.sample_map {
+            write_sample_map(path, w, h, &po.pixel_samples)?;
+        }
+        let last = po.passes.last().copied();
+        let info = ProgressiveReport {
+            stop: po.stop,
+            spp_reached: po.pixel_samples.iter().copied().max().unwrap_or(0),
+            samples: last.map_or(0, |p| p.samples),
+            passes: po.passes.len() as u32,
+            time_limit: budget.time_limit,
+            target_error: budget.target_error,
+            relative_error: ErrorEstimate {
+                estimate: last.map_or(f64::INFINITY, |p| p.relative_error),
+                confidence: CONFIDENCE,
+            },
+        };
+        (po.out, Some(info))
+    } else {
+        let out = render::render(&tracer, &camera, &settings, &|| bar.inc(1))?;
+        bar.finish_and_clear();
+        (out, None)
+    };
+
+    let report = RenderReport::new(
+        &args.scene,
+        backend.name(),
+        &settings,
+        &integrator,
+        load_seconds,
+        accel_build_seconds,
+        &out,
+        &output,
+    );
+    let mut report = report;
+    report.effects = plan.on().iter().map(|n| n.to_string()).collect();
+    report.kernel = kernel.describe();
+    if let Some(p) = progress {
+        report.spp = p.spp_reached;
+        if !args.quiet {
+            eprintln!(
+                "stopped ({:?}) at {} spp after {} passes; relative error {:.4} at {:.0} % confidence",
+                p.stop,
+                p.spp_reached,
+                p.passes,
+                p.relative_error.estimate,
+                p.relative_error.confidence * 100.0
+            );
+        }
+        report.progressive = Some(p);
+    }
+    let bad = &out.nonfinite;
+    if bad.count > 0 {
+        say(&format!(
+            "warning: {} samples left out ({} NaN, {} infinite, {} negative), first at pixel {:?}",
+            bad.count, bad.nan, bad.inf, bad.negative, bad.pixels[0]
+        ));
+        if args.strict {
+            return Err(Error::Strict(format!(
+                "--strict: {} NaN, infinite or negative samples, first at pixel {:?}; no image written",
+                bad.count, bad.pixels[0]
+            )));
+        }
+    }
+    if let Some(c) = &report.clamp {
+        say(&format!(
+            "--clamp {}: {} samples scaled down, {:.3} % of the energy removed",
+            c.max,
+            c.clamped_samples,
+            100.0 * c.removed_fraction
+        ));
+    }
+    if let Some(p) = &args.aov {
+        write_bad_sample_map(p, w, h, &bad.per_pixel)?;
+    }
+    let options = OutputOptions {
+        exposure: args.exposure,
+        metadata: report.metadata(),
+    };
+    match &part_provenance {
+        Some(p) => farm::write_accumulation(&output, &out.film, p)?,
+        None => film::write_image(&output, &out.film, &options)?,
+    }
+    if let Some(path) = &args.variance {
+        write_variance(path, &out.film)?;
+    }
+    if let Some(path) = &args.report {
+        write_json(path, &report)?;
+    }
+    say(&format!(
+        "wrote {}: {:.2} s, {} rays, {:.2} Mrays/s, {:.3} Mpaths/s",
+        output.display(),
+        out.seconds,
+        out.rays.total(),
+        report.mrays_per_second,
+        report.mpaths_per_second
+    ));
+    Ok(())
+}
+
+/// The sample map: each pixel's sample count on the false-colour ramp of
+/// `diff`, white at the most any pixel took.
+fn write_sample_map(path: &std::path::Path, w: u32, h: u32, counts: &[u32]) -> Result<()> {
+    let top = counts.iter().copied().max().unwrap_or(0).max(1) as f64;
+    let rgb: Vec<u8> = counts
+        .iter()
+        .flat_map(|&c| crate::commands::diff::ramp(c as f64 / top))
+        .collect();
+    film::write_png_rgb8(path, w, h, &rgb)
+}
+
+/// The map of rejected samples: per pixel, their count (EXR, PFM) or red
+/// brightening with the count, black where none (PNG).
+fn write_bad_sample_map(path: &std::path::Path, w: u32, h: u32, per_pixel: &[u32]) -> Result<()> {
+    let count = |i: usize| per_pixel.get(i).copied().unwrap_or(0);
+    if film::ImageFormat::from_path(path)? == film::ImageFormat::Png {
+        let top = per_pixel.iter().copied().max().unwrap_or(0).max(1) as f32;
+        let rgb: Vec<u8> = (0..w as usize * h as usize)
+            .flat_map(|i| match count(i) {
+                0 => [0, 0, 0],
+                c => [(95.0 + 160.0 * c as f32 / top) as u8, 0, 0],
+            })
+            .collect();
+        return film::write_png_rgb8(path, w, h, &rgb);
+    }
+    let map: Vec<[f64; 3]> = (0..w as usize * h as usize)
+        .map(|i| [count(i) as f64; 3])
+        .collect();
+    film::write_rgb(path, w, h, &map, &OutputOptions::default())
+}
+
+/// Every setting that changes a render's image, for accumulation files:
+/// parts merge, and checkpoints resume, only under equal settings.
+fn image_settings(
+    s: &RenderSettings,
+    i: &IntegratorSettings,
+    backend: Backend,
+    build: &BuildArgs,
+    kernel: &str,
+) -> Vec<(String, String)> {
+    let roulette = match i.roulette {
+        Roulette::Throughput => "throughput".to_string(),
+        Roulette::Fixed(p) => format!("fixed {p:?}"),
+    };
+    [
+        (
+            "resolution",
+            format!("{}x{}", s.resolution[0], s.resolution[1]),
+        ),
+        ("spp", s.spp.to_string()),
+        ("seed", s.seed.to_string()),
+        ("sampler", s.sampler.to_string()),
+        ("max_depth", i.max_depth.to_string()),
+        ("light_samples", i.light_samples.to_string()),
+        ("direct", i.direct.to_string()),
+        ("roulette", roulette),
+        ("rr_depth", i.rr_depth.to_string()),
+        ("backend", backend.name().to_string()),
+        ("robust", (!build.no_robust).to_string()),
+        (
+            "bvh_quality",
+            format!("{:?}", build.bvh_quality).to_lowercase(),
+        ),
+        ("kernel", kernel.to_string()),
+        ("clamp", s.clamp.map_or("none".into(), |c| format!("{c:?}"))),
+    ]
+    .into_iter()
+    .map(|(n, v)| (n.to_string(), v))
+    .collect()
+}
+
+/// Set by SIGINT or SIGTERM while a checkpointed render runs.
+static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Render a shard, crop or checkpointed render (see [`farm::render_part`]).
+fn render_farm(
+    args: &RenderArgs,
+    tracer: &PathTracer<'_>,
+    camera: &crate::camera::Camera,
+    settings: &RenderSettings,
+    provenance: &farm::Provenance,
+    say: &dyn Fn(&str),
+) -> Result<render::RenderOutput> {
+    let resume = match &args.resume {
+        Some(path) => {
+            let (film, saved) = farm::read_accumulation(path)?;
+            let spp_saved = saved.spp().unwrap_or(0);
+            farm::check_resume(
+                path,
+                &saved,
+                provenance,
+                settings.sampler.same_points(spp_saved, settings.spp),
+            )?;
+            say(&format!(
+                "resuming {}: samples {}..{} of {}..{}",
+                path.display(),
+                saved.samples.start,
+                saved.samples.end,
+                provenance.samples.start,
+                provenance.samples.end
+            ));
+            Some((film, saved.samples.end))
+        }
+        None => None,
+    };
+    let checkpoint = args
+        .checkpoint
+        .clone()
+        .or_else(|| args.resume.clone())
+        .map(|path| farm::Checkpoint {
+            path,
+            every: args.checkpoint_every,
+        });
+    if checkpoint.is_some() {
+        ctrlc::set_handler(|| STOP.store(true, std::sync::atomic::Ordering::SeqCst))
+            .map_err(|e| Error::Settings(format!("cannot catch SIGINT and SIGTERM: {e}")))?;
+    }
+    let part = farm::Part {
+        provenance: provenance.clone(),
+        resume,
+        checkpoint: checkpoint.clone(),
+        stop: &STOP,
+    };
+    let po = farm::render_part(tracer, camera, settings, part, say)?;
+    if po.interrupted {
+        let c = checkpoint.expect("only a checkpointed render stops early");
+        return Err(Error::Interrupted(format!(
+            "interrupted: {} holds samples {}..{} of {}..{}; no image written; continue with --resume {}",
+            c.path.display(),
+            provenance.samples.start,
+            po.done,
+            provenance.samples.start,
+            provenance.samples.end,
+            c.path.display()
+        )));
+    }
+    Ok(po.out)
+}
