@@ -18,7 +18,19 @@
 use crate::error::{Error, Result};
 use crate::math::{Ray, Vec2, Vec3};
 use crate::sampling::square_to_concentric_disk;
-use crate::scene::CameraDesc;
+
+/// The pinhole camera as a scene file describes it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraDesc {
+    /// Eye position.
+    pub origin: Vec3,
+    /// Point looked at.
+    pub target: Vec3,
+    /// Up direction (need not be orthogonal to the view direction).
+    pub up: Vec3,
+    /// Vertical field of view in degrees.
+    pub fov_y: f32,
+}
 
 /// The lens of a [`Camera`]: aperture radius and focus distance, both in scene
 /// units.

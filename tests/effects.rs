@@ -408,7 +408,7 @@ fn floor_scene(rho: f32, env: EnvironmentMap) -> Scene {
         mat,
     );
     let mut scene = m.scene();
-    scene.camera = embertrace::scene::CameraDesc {
+    scene.camera = embertrace::camera::CameraDesc {
         origin: Vec3::new(0.0, 2.0, 0.0),
         target: Vec3::ZERO,
         up: Vec3::Z,

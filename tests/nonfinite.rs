@@ -4,13 +4,12 @@
 //! and tiling; `--clamp` reports exactly the energy it removed; the CLI
 //! writes the map of bad samples and the report's fields.
 
-use embertrace::camera::Camera;
+use embertrace::camera::{Camera, CameraDesc};
 use embertrace::film::Film;
 use embertrace::integrator::RayCounts;
 use embertrace::math::{Ray, Vec3};
 use embertrace::render::{Radiance, RenderOutput, RenderSettings, render};
 use embertrace::sampler::{Sampler, SamplerKind};
-use embertrace::scene::CameraDesc;
 
 /// 1.0 everywhere except: NaN at sample 0 of pixel (3, 1), +inf at sample 1
 /// of (0, 2), -0.5 in every sample of (5, 5), and 4.0 (red only) at (7, 0).

@@ -16,7 +16,7 @@ mod xml;
 
 use crate::accel::Hit;
 use crate::bsdf::{Bsdf, Diffuse};
-use crate::camera::{Camera, ThinLens};
+use crate::camera::{Camera, CameraDesc, ThinLens};
 use crate::error::{Error, Result};
 use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
 use crate::limits::{MAX_COORDINATE, MAX_SCENE_FILE_BYTES, MAX_TRIANGLES, MAX_VERTICES};
@@ -93,19 +93,6 @@ impl Default for Material {
             two_sided: false,
         }
     }
-}
-
-/// The pinhole camera as a scene file describes it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CameraDesc {
-    /// Eye position.
-    pub origin: Vec3,
-    /// Point looked at.
-    pub target: Vec3,
-    /// Up direction (need not be orthogonal to the view direction).
-    pub up: Vec3,
-    /// Vertical field of view in degrees.
-    pub fov_y: f32,
 }
 
 /// The vertical field of view, in degrees, of a focal length of `f` pixels
