@@ -1,0 +1,290 @@
+//! BSDFs (`diffuse`, `conductor`, `roughconductor`, `dielectric`,
+//! `plastic`, `roughplastic`, `twosided`) and `bitmap` textures, read into a
+//! [`Material`].
+
+use super::Loader;
+use super::params::{Params, Value};
+use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Plastic};
+use crate::error::{Error, Result, one_line};
+use crate::math::Vec3;
+use crate::scene::Material;
+use crate::texture::ImageTexture;
+use roxmltree::Node;
+use std::sync::Arc;
+
+/// Indices of refraction by Mitsuba's names (Mitsuba 3 documentation,
+/// "Dielectric" plugin, table of named indices).
+const NAMED_IOR: [(&str, f32); 23] = [
+    ("vacuum", 1.0),
+    ("helium", 1.00004),
+    ("hydrogen", 1.00013),
+    ("air", 1.00028),
+    ("carbon dioxide", 1.00045),
+    ("water", 1.3330),
+    ("acetone", 1.36),
+    ("ethanol", 1.361),
+    ("carbon tetrachloride", 1.461),
+    ("glycerol", 1.4729),
+    ("benzene", 1.501),
+    ("silicone oil", 1.52045),
+    ("bromine", 1.661),
+    ("water ice", 1.31),
+    ("fused quartz", 1.458),
+    ("pyrex", 1.470),
+    ("acrylic glass", 1.49),
+    ("polypropylene", 1.49),
+    ("bk7", 1.5046),
+    ("sodium chloride", 1.544),
+    ("amber", 1.55),
+    ("pet", 1.5750),
+    ("diamond", 2.419),
+];
+
+impl<'a, 'i> Loader<'a, 'i> {
+    fn texture(&mut self, node: Node<'a, 'i>) -> Result<Arc<ImageTexture>> {
+        let kind = self.need_attr(node, "type")?;
+        if kind != "bitmap" {
+            return Err(self.fail(
+                node,
+                format!(
+                    "texture `{}` is not in the subset (expected bitmap)",
+                    one_line(&kind)
+                ),
+            ));
+        }
+        let mut p = self.params(node)?;
+        let file = p
+            .text("filename")
+            .ok_or_else(|| self.fail(node, "bitmap needs a `filename` string"))?;
+        for key in ["filter_type", "wrap_mode"] {
+            if let Some(v) = p.text(key) {
+                let ours = if key == "filter_type" {
+                    "bilinear"
+                } else {
+                    "repeat"
+                };
+                if v != ours {
+                    self.warn(
+                        node,
+                        format!("bitmap {key} `{}`: embertrace uses {ours}", one_line(&v)),
+                    );
+                }
+            }
+        }
+        self.finish(p);
+        let full = self.dir.join(&file);
+        if let Some(t) = self.textures.get(&full) {
+            return Ok(t.clone());
+        }
+        if let Some(why) = crate::scene::not_a_file(&full) {
+            return Err(self.fail(node, format!("bitmap `{}` {why}", one_line(&file))));
+        }
+        let t = Arc::new(ImageTexture::load(&full)?);
+        self.textures.insert(full, t.clone());
+        Ok(t)
+    }
+
+    /// A colour-like parameter that may be a bitmap: (value, texture).
+    fn reflectance(
+        &mut self,
+        p: &mut Params<'a, 'i>,
+        key: &str,
+        default: f32,
+    ) -> Result<(Vec3, Option<Arc<ImageTexture>>)> {
+        if let Some(node) = p.object(key) {
+            if node.tag_name().name() != "texture" {
+                return Err(self.fail(node, format!("`{key}` must be a colour or a texture")));
+            }
+            return Ok((Vec3::splat(default), Some(self.texture(node)?)));
+        }
+        let c = p.colour(self, key)?.unwrap_or(Vec3::splat(default));
+        if c.max_element() > 1.0 {
+            return Err(Error::input(
+                self.path,
+                Some(p.line),
+                format!("{}: `{key}` must be at most 1, got {c}", p.owner),
+            ));
+        }
+        Ok((c, None))
+    }
+
+    fn ior(&self, p: &mut Params<'a, 'i>, key: &str, default: f32) -> Result<f32> {
+        match p.take(key) {
+            None => Ok(default),
+            Some((Value::Number(v), _)) if v > 0.0 => Ok(v as f32),
+            Some((Value::Text(name), line)) => NAMED_IOR
+                .iter()
+                .find(|(n, _)| *n == name.to_ascii_lowercase())
+                .map(|(_, v)| *v)
+                .ok_or_else(|| {
+                    Error::input(
+                        self.path,
+                        Some(line),
+                        format!(
+                            "{key}: unknown material `{}` (give a number)",
+                            one_line(&name)
+                        ),
+                    )
+                }),
+            Some((_, line)) => Err(Error::input(
+                self.path,
+                Some(line),
+                format!("{key}: expected a positive number or a material name"),
+            )),
+        }
+    }
+
+    fn distribution(&self, p: &mut Params<'a, 'i>) -> Result<Distribution> {
+        match p.text("distribution").as_deref() {
+            None | Some("beckmann") => Ok(Distribution::Beckmann),
+            Some("ggx") => Ok(Distribution::Ggx),
+            Some(other) => Err(Error::input(
+                self.path,
+                Some(p.line),
+                format!(
+                    "distribution `{}` (expected beckmann or ggx)",
+                    one_line(other)
+                ),
+            )),
+        }
+    }
+
+    fn alpha(&self, p: &mut Params<'a, 'i>) -> Result<f32> {
+        let a = p.number("alpha").map_or(0.1, |v| v.0) as f32;
+        if let (Some((u, _)), Some((v, _))) = (p.number("alpha_u"), p.number("alpha_v")) {
+            if u != v {
+                return Err(Error::input(
+                    self.path,
+                    Some(p.line),
+                    "anisotropic roughness (alpha_u != alpha_v) is not in the subset",
+                ));
+            }
+            return Ok(u as f32);
+        }
+        Ok(a)
+    }
+
+    pub(super) fn bsdf(&mut self, node: Node<'a, 'i>) -> Result<Material> {
+        if node.tag_name().name() != "bsdf" {
+            return Err(self.fail(node, "expected a <bsdf>"));
+        }
+        let kind = self.need_attr(node, "type")?;
+        let name = node
+            .attribute("id")
+            .map_or_else(|| kind.clone(), str::to_string);
+        let mut p = self.params(node)?;
+        let mut texture = None;
+        let air = 1.00028;
+        let bsdf = match kind.as_str() {
+            "twosided" => {
+                let inner = p
+                    .unnamed_of("bsdf")
+                    .ok_or_else(|| self.fail(node, "twosided needs one nested <bsdf>"))?;
+                if p.unnamed_of("bsdf").is_some() {
+                    return Err(self.fail(
+                        node,
+                        "twosided with two different sides is not in the subset",
+                    ));
+                }
+                self.finish(p);
+                // embertrace's surfaces scatter on both sides already
+                let mut m = self.bsdf(inner)?;
+                m.name = name;
+                return Ok(m);
+            }
+            "diffuse" => {
+                let (albedo, t) = self.reflectance(&mut p, "reflectance", 0.5)?;
+                texture = t;
+                Bsdf::Diffuse(Diffuse { albedo })
+            }
+            "conductor" | "roughconductor" => {
+                let material = p.text("material").unwrap_or_else(|| "none".into());
+                let eta = p.colour(self, "eta")?;
+                let k = p.colour(self, "k")?;
+                let (eta, k) = match (eta, k) {
+                    (Some(e), Some(k)) => (e, k),
+                    (None, None) if material == "none" => (Vec3::ZERO, Vec3::ONE),
+                    (None, None) => {
+                        return Err(self.fail(
+                            node,
+                            format!(
+                                "conductor material `{}`: named metals need spectral data; give `eta` and `k` as rgb",
+                                one_line(&material)
+                            ),
+                        ));
+                    }
+                    _ => return Err(self.fail(node, "conductor: give both `eta` and `k`")),
+                };
+                self.white(&mut p, node, "specular_reflectance")?;
+                let microfacet = if kind == "conductor" {
+                    Microfacet::new(Distribution::Ggx, 0.0)
+                } else {
+                    Microfacet::new(self.distribution(&mut p)?, self.alpha(&mut p)?)
+                };
+                p.boolean("sample_visible");
+                Bsdf::Conductor(Conductor { eta, k, microfacet })
+            }
+            "dielectric" => {
+                let int = self.ior(&mut p, "int_ior", 1.5046)?;
+                let ext = self.ior(&mut p, "ext_ior", air)?;
+                let (reflectance, _) = self.reflectance(&mut p, "specular_reflectance", 1.0)?;
+                let (transmittance, _) = self.reflectance(&mut p, "specular_transmittance", 1.0)?;
+                Bsdf::Glass(Glass {
+                    ior: int / ext,
+                    reflectance,
+                    transmittance,
+                })
+            }
+            "plastic" | "roughplastic" => {
+                let int = self.ior(&mut p, "int_ior", 1.49)?;
+                let ext = self.ior(&mut p, "ext_ior", air)?;
+                let (diffuse, t) = self.reflectance(&mut p, "diffuse_reflectance", 0.5)?;
+                texture = t;
+                self.white(&mut p, node, "specular_reflectance")?;
+                let nonlinear = p.boolean("nonlinear").is_some_and(|v| v.0);
+                let (distribution, alpha) = if kind == "plastic" {
+                    (Distribution::Ggx, 0.0)
+                } else {
+                    p.boolean("sample_visible");
+                    (self.distribution(&mut p)?, self.alpha(&mut p)?)
+                };
+                Bsdf::Plastic(
+                    Plastic::with_options(diffuse, int / ext, alpha, distribution, nonlinear)
+                        .map_err(|e| self.fail(node, format!("{kind}: {e}")))?,
+                )
+            }
+            other => {
+                return Err(self.fail(
+                    node,
+                    format!(
+                        "bsdf `{}` is not in the subset (expected diffuse, conductor, roughconductor, dielectric, plastic, roughplastic or twosided)",
+                        one_line(other)
+                    ),
+                ));
+            }
+        };
+        self.finish(p);
+        bsdf.validate()
+            .map_err(|e| self.fail(node, format!("bsdf `{kind}`: {e}")))?;
+        Ok(Material {
+            name,
+            bsdf,
+            texture,
+            emission: Vec3::ZERO,
+            two_sided: false,
+        })
+    }
+
+    /// A `specular_reflectance` that embertrace has no scale for: only 1.
+    fn white(&mut self, p: &mut Params<'a, 'i>, node: Node, key: &str) -> Result<()> {
+        if let Some(c) = p.colour(self, key)? {
+            if c != Vec3::ONE {
+                self.warn(
+                    node,
+                    format!("`{key}` {c} is read as 1 (no specular scale in this BSDF)"),
+                );
+            }
+        }
+        Ok(())
+    }
+}
