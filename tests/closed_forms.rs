@@ -460,7 +460,7 @@ fn zero_area_and_zero_power_emitters_change_nothing() {
         m.scene()
     };
     let (plain, with) = (build(false), build(true));
-    let lights = |s: &Scene| embertrace::light::Lights::new(s).area_lights().len();
+    let lights = |s: &Scene| embertrace::integrator::Lights::new(s).area_lights().len();
     // the square light's two triangles make one quad light
     assert_eq!(lights(&plain), 1);
     assert_eq!(lights(&with), lights(&plain));

@@ -289,12 +289,12 @@ fn furnace_image_environment_matches_quadrature() {
 }
 
 /// The lights of a scene given as TOML text.
-fn scene_lights(toml: &str) -> (embertrace::scene::Scene, embertrace::light::Lights) {
+fn scene_lights(toml: &str) -> (embertrace::scene::Scene, embertrace::integrator::Lights) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("s.toml");
     std::fs::write(&path, toml).unwrap();
     let scene = embertrace::scene::Scene::load(&path).unwrap();
-    let lights = embertrace::light::Lights::new(&scene);
+    let lights = embertrace::integrator::Lights::new(&scene);
     (scene, lights)
 }
 
@@ -434,7 +434,7 @@ fn chi2_quad_light_by_solid_angle_near_and_by_area_far() {
     )
     .unwrap();
     let scene = embertrace::scene::Scene::load(&path).unwrap();
-    let lights = embertrace::light::Lights::new(&scene);
+    let lights = embertrace::integrator::Lights::new(&scene);
     assert_eq!(lights.area_lights().len(), 1, "the quad is one light");
     for (k, from) in [Vec3::new(0.3, 0.4, 0.1), Vec3::new(0.5, -30.0, 0.2)]
         .into_iter()

@@ -6,7 +6,7 @@
 
 use crate::accel::Accelerator;
 use crate::camera::Camera;
-use crate::light::Lights;
+use crate::integrator::Lights;
 use crate::math::{Frame, Ray, SurfacePoint, Vec2, Vec3, spawn_ray, spawn_ray_to};
 use crate::sampler::Sampler;
 use crate::sampling::{

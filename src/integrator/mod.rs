@@ -28,13 +28,14 @@
 //! with `q <= 0` ends; a surviving path is divided by `q > 0`, so its
 //! throughput stays finite.
 
+mod lights;
 mod path;
 
+pub use lights::Lights;
 pub use path::{BATCH, BLOCK, Lane};
 
 use crate::accel::Accelerator;
 use crate::camera::Camera;
-use crate::light::Lights;
 use crate::math::{Ray, Vec2, Vec3};
 use crate::plan::{Kernel, Plan};
 use crate::sampler::Sampler;

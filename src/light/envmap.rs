@@ -260,7 +260,7 @@ impl EnvironmentMap {
     /// Power for light selection, for a scene whose bounding sphere has
     /// radius `scene_radius`: `pi r^2 * (int L dw) / 4`. For a constant map of
     /// luminance `L` that is `pi^2 r^2 L`, the power the uniform environment
-    /// gets in [`crate::light::Lights`], so both kinds weigh the same when they
+    /// gets in [`crate::integrator::Lights`], so both kinds weigh the same when they
     /// shine the same.
     pub fn power(&self, scene_radius: f32) -> f64 {
         let r = scene_radius as f64;

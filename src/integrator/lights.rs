@@ -1,0 +1,415 @@
+//! The lights of one scene as the estimator samples them (pbrt-v4's
+//! `PowerLightSampler`, section 12.6.3): the emissive triangles, quads and
+//! spheres gathered from the scene as area lights, then the point and
+//! directional lights, the uniform environment and the environment map, one
+//! chosen in proportion to its power with an alias table, and a point on it
+//! by the rules of [`crate::light`]. It reads the scene (its emitting
+//! primitives and their surface points), so it lives on the estimator's side
+//! of the scene, not with the light sources the scene holds.
+
+use crate::light::{
+    AreaLight, DirectionalLight, Emitter, EnvironmentMap, LightSample, PointLight, Quad,
+    luminance_f64, sphere_cone,
+};
+use crate::math::{SurfacePoint, Vec2, Vec3, spawn_ray, spawn_ray_to};
+use crate::sampling::{
+    Discrete, square_to_uniform_sphere, square_to_uniform_sphere_pdf, square_to_uniform_triangle,
+};
+use crate::scene::Scene;
+
+/// All lights of a scene with the power-proportional selection distribution.
+///
+/// Selection items, in order: the area lights, the point lights, the
+/// directional lights, the uniform environment, the environment map.
+#[derive(Debug, Clone)]
+pub struct Lights {
+    area: Vec<AreaLight>,
+    /// For each primitive, its index in `area`, or `u32::MAX`.
+    light_of_prim: Vec<u32>,
+    points: Vec<PointLight>,
+    directionals: Vec<DirectionalLight>,
+    environment: Option<Vec3>,
+    environment_map: Option<EnvironmentMap>,
+    select: Discrete,
+}
+
+const NO_LIGHT: u32 = u32::MAX;
+
+const PI_F64: f64 = std::f64::consts::PI;
+
+/// The selection table's `f32` weights for light powers computed in `f64`:
+/// each divided by the largest, so none overflows, and a positive power too
+/// small beside the largest for `f32` kept at the smallest normal `f32`, so
+/// no light that shines is never chosen (any positive probability keeps the
+/// estimate unbiased). Powers that are zero, negative or not finite weigh 0.
+fn selection_weights(powers: &[f64]) -> Vec<f32> {
+    let top = powers
+        .iter()
+        .copied()
+        .filter(|p| p.is_finite())
+        .fold(0.0, f64::max);
+    powers
+        .iter()
+        .map(|&p| {
+            if top > 0.0 && p.is_finite() && p > 0.0 {
+                ((p / top) as f32).max(f32::MIN_POSITIVE)
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+impl Lights {
+    /// Collect the lights of `scene`.
+    pub fn new(scene: &Scene) -> Self {
+        let mut area = Vec::new();
+        let mut light_of_prim = vec![NO_LIGHT; scene.primitive_count()];
+        let mut weights: Vec<f64> = Vec::new();
+        let n_tris = scene.triangle_count() as u32;
+        let mut prim = 0;
+        while prim < scene.primitive_count() as u32 {
+            let m = scene.material(prim);
+            if m.emission.max_element() <= 0.0 {
+                prim += 1;
+                continue;
+            }
+            let next = prim + 1;
+            let quad = (next < n_tris
+                && scene.tri_material[prim as usize] == scene.tri_material[next as usize])
+                .then(|| Quad::find(scene.triangle(prim), scene.triangle(next)))
+                .flatten();
+            let (a, shape) = match scene.sphere(prim) {
+                None if quad.is_some() => {
+                    let (mut q, ..) = quad.expect("checked");
+                    q.second = next;
+                    light_of_prim[next as usize] = area.len() as u32;
+                    (q.areas[0] + q.areas[1], Emitter::Quad(q))
+                }
+                None => {
+                    let [p0, p1, p2] = scene.triangle(prim);
+                    let a = 0.5 * (p1 - p0).as_dvec3().cross((p2 - p0).as_dvec3()).length();
+                    (a as f32, Emitter::Triangle)
+                }
+                Some(s) => {
+                    let r = s.radius as f64;
+                    let a = 4.0 * std::f64::consts::PI * r * r;
+                    (
+                        a as f32,
+                        Emitter::Sphere {
+                            center: s.center,
+                            radius: s.radius,
+                        },
+                    )
+                }
+            };
+            let sides = if m.two_sided { 2.0 } else { 1.0 };
+            light_of_prim[prim as usize] = area.len() as u32;
+            weights.push(luminance_f64(m.emission).max(0.0) * a as f64 * PI_F64 * sides);
+            area.push(AreaLight {
+                prim,
+                le: m.emission,
+                two_sided: m.two_sided,
+                area: a,
+                shape,
+            });
+            prim += if matches!(shape, Emitter::Quad(_)) {
+                2
+            } else {
+                1
+            };
+        }
+        let b = scene.bounds();
+        let r = if b.is_empty() {
+            1.0
+        } else {
+            (0.5 * (b.max - b.min).length()).max(1e-3)
+        };
+        weights.extend(scene.point_lights.iter().map(|l| l.power()));
+        weights.extend(scene.directional_lights.iter().map(|l| l.power(r)));
+        if let Some(env) = scene.environment {
+            let r = r as f64;
+            weights.push(luminance_f64(env).max(0.0) * PI_F64 * PI_F64 * r * r);
+        }
+        if let Some(map) = &scene.environment_map {
+            weights.push(map.power(r));
+        }
+        Lights {
+            area,
+            light_of_prim,
+            points: scene.point_lights.clone(),
+            directionals: scene.directional_lights.clone(),
+            environment: scene.environment,
+            environment_map: scene.environment_map.clone(),
+            select: Discrete::new(&selection_weights(&weights)),
+        }
+    }
+
+    /// The area lights.
+    pub fn area_lights(&self) -> &[AreaLight] {
+        &self.area
+    }
+
+    /// Whether there is nothing to sample.
+    pub fn is_empty(&self) -> bool {
+        self.select.is_empty()
+    }
+
+    /// Whether some light has a delta distribution (point, directional).
+    pub fn has_delta(&self) -> bool {
+        !self.points.is_empty() || !self.directionals.is_empty()
+    }
+
+    /// Whether an escaping ray sees any radiance.
+    pub fn has_environment(&self) -> bool {
+        self.environment.is_some() || self.environment_map.is_some()
+    }
+
+    /// Selection index of the uniform environment.
+    fn environment_index(&self) -> usize {
+        self.area.len() + self.points.len() + self.directionals.len()
+    }
+
+    /// Selection index of the environment map.
+    fn environment_map_index(&self) -> usize {
+        self.environment_index() + usize::from(self.environment.is_some())
+    }
+
+    /// Radiance leaving triangle `prim` towards `wo` (unit, pointing away from
+    /// the surface); `n` is the triangle's front normal.
+    pub fn le(&self, scene: &Scene, prim: u32, n: Vec3, wo: Vec3) -> Vec3 {
+        let m = scene.material(prim);
+        if m.emission.max_element() <= 0.0 || (!m.two_sided && n.dot(wo) <= 0.0) {
+            Vec3::ZERO
+        } else {
+            m.emission
+        }
+    }
+
+    /// Radiance of the environment along a ray that escaped in direction `d`.
+    pub fn environment(&self, d: Vec3) -> Vec3 {
+        let mut l = self.environment.unwrap_or(Vec3::ZERO);
+        if let Some(map) = &self.environment_map {
+            l += map.eval(d);
+        }
+        l
+    }
+
+    /// Sample a light as seen from `from`, with `u_select` choosing the light
+    /// and `u` the point on it.
+    pub fn sample(
+        &self,
+        scene: &Scene,
+        from: &SurfacePoint,
+        u_select: f32,
+        u: Vec2,
+    ) -> Option<LightSample> {
+        let chosen = self.select.sample(u_select)?;
+        let mut i = chosen.index;
+        if i < self.area.len() {
+            return self.sample_area(scene, &self.area[i], chosen.pmf, from, u);
+        }
+        i -= self.area.len();
+        let delta = if i < self.points.len() {
+            self.points[i].sample_li(from)?
+        } else if i < self.points.len() + self.directionals.len() {
+            self.directionals[i - self.points.len()].sample_li(from)
+        } else if chosen.index == self.environment_index() && self.environment.is_some() {
+            let wi = square_to_uniform_sphere(u);
+            return Some(LightSample {
+                wi,
+                li: self.environment.unwrap_or(Vec3::ZERO),
+                pdf: chosen.pmf * square_to_uniform_sphere_pdf(wi),
+                delta: false,
+                shadow: spawn_ray(from, wi),
+            });
+        } else {
+            let map = self.environment_map.as_ref()?;
+            let s = map.sample(u)?;
+            return Some(LightSample {
+                wi: s.wi,
+                li: s.li,
+                pdf: chosen.pmf * s.pdf,
+                delta: false,
+                shadow: spawn_ray(from, s.wi),
+            });
+        };
+        Some(LightSample {
+            wi: delta.wi,
+            li: delta.li,
+            pdf: chosen.pmf * delta.pdf,
+            delta: true,
+            shadow: delta.shadow,
+        })
+    }
+
+    /// A point on area light `light`, chosen with probability `pmf`.
+    fn sample_area(
+        &self,
+        scene: &Scene,
+        light: &AreaLight,
+        pmf: f32,
+        from: &SurfacePoint,
+        u: Vec2,
+    ) -> Option<LightSample> {
+        let (to, solid_angle_pdf, area) = match light.shape {
+            Emitter::Triangle => {
+                let b = square_to_uniform_triangle(u);
+                (scene.surface_point(light.prim, b.x, b.y), None, light.area)
+            }
+            Emitter::Quad(q) => {
+                let spherical = q.spherical(from.p);
+                let (s, t) = match &spherical {
+                    Some(sr) => {
+                        let [s, t] = sr.sample(u);
+                        (s as f32, t as f32)
+                    }
+                    None => (u.x, u.y),
+                };
+                let (k, bu, bv) = q.locate(s, t);
+                let prim = if k == 0 { light.prim } else { q.second };
+                (
+                    scene.surface_point(prim, bu, bv),
+                    spherical.map(|sr| (1.0 / sr.solid_angle()) as f32),
+                    2.0 * q.areas[k],
+                )
+            }
+            Emitter::Sphere { center, radius } => match sphere_cone(center, radius, from.p) {
+                Some(cone) => {
+                    let p = cone.sample(u);
+                    (
+                        SurfacePoint::on_sphere(center, radius, p),
+                        Some(cone.pdf()),
+                        light.area,
+                    )
+                }
+                None => {
+                    let n = square_to_uniform_sphere(u);
+                    (
+                        SurfacePoint::on_sphere(center, radius, center + radius * n),
+                        None,
+                        light.area,
+                    )
+                }
+            },
+        };
+        let delta = to.p - from.p;
+        let dist2 = delta.length_squared();
+        if !(dist2 > 0.0) || !dist2.is_finite() {
+            return None;
+        }
+        let wi = delta / dist2.sqrt();
+        let cos_l = to.n.dot(-wi);
+        if cos_l == 0.0 || (!light.two_sided && cos_l < 0.0) {
+            return None;
+        }
+        let pdf = pmf
+            * match solid_angle_pdf {
+                Some(p) => p,
+                None => dist2 / (cos_l.abs() * area),
+            };
+        if !(pdf > 0.0) || !pdf.is_finite() {
+            return None;
+        }
+        Some(LightSample {
+            wi,
+            li: light.le,
+            pdf,
+            delta: false,
+            shadow: spawn_ray_to(from, &to),
+        })
+    }
+
+    /// Solid-angle density with which [`Lights::sample`] from `from` would
+    /// produce the point `to` on emissive primitive `prim`.
+    pub fn pdf_area(&self, from: &SurfacePoint, prim: u32, to: &SurfacePoint) -> f32 {
+        let idx = self.light_of_prim[prim as usize];
+        if idx == NO_LIGHT {
+            return 0.0;
+        }
+        let light = &self.area[idx as usize];
+        let pmf = self.select.pmf(idx as usize);
+        let area = match light.shape {
+            Emitter::Sphere { center, radius } => {
+                if let Some(cone) = sphere_cone(center, radius, from.p) {
+                    return pmf * cone.pdf();
+                }
+                light.area
+            }
+            Emitter::Quad(q) => {
+                if let Some(sr) = q.spherical(from.p) {
+                    return pmf * (1.0 / sr.solid_angle()) as f32;
+                }
+                2.0 * q.areas[usize::from(prim == q.second)]
+            }
+            Emitter::Triangle => light.area,
+        };
+        let delta = to.p - from.p;
+        let dist2 = delta.length_squared();
+        let cos_l = to.n.dot(delta).abs() / dist2.sqrt();
+        if !(cos_l > 0.0) || !(area > 0.0) {
+            return 0.0;
+        }
+        pmf * dist2 / (cos_l * area)
+    }
+
+    /// [`Lights::environment`] and [`Lights::pdf_environment`] of one
+    /// escaping direction, the map's coordinates computed once.
+    pub fn environment_and_pdf(&self, wi: Vec3) -> (Vec3, f32) {
+        let mut l = self.environment.unwrap_or(Vec3::ZERO);
+        let mut pdf = 0.0;
+        if self.environment.is_some() {
+            pdf += self.select.pmf(self.environment_index()) * square_to_uniform_sphere_pdf(wi);
+        }
+        if let Some(map) = &self.environment_map {
+            let (le, p) = map.eval_and_pdf(wi);
+            l += le;
+            pdf += self.select.pmf(self.environment_map_index()) * p;
+        }
+        (l, pdf)
+    }
+
+    /// Solid-angle density with which [`Lights::sample`] picks direction `wi`
+    /// on the environment (both kinds together).
+    pub fn pdf_environment(&self, wi: Vec3) -> f32 {
+        let mut pdf = 0.0;
+        if self.environment.is_some() {
+            pdf += self.select.pmf(self.environment_index()) * square_to_uniform_sphere_pdf(wi);
+        }
+        if let Some(map) = &self.environment_map {
+            pdf += self.select.pmf(self.environment_map_index()) * map.pdf(wi);
+        }
+        pdf
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::SceneBuilder;
+
+    #[test]
+    fn powers_beyond_f32_are_weighed_in_f64() {
+        assert_eq!(selection_weights(&[4.0, 1.0, 0.0]), [1.0, 0.25, 0.0]);
+        let w = selection_weights(&[f64::MAX, 1.0, -1.0, f64::NAN, f64::INFINITY]);
+        assert_eq!(w, [1.0, f32::MIN_POSITIVE, 0.0, 0.0, 0.0]);
+        assert_eq!(selection_weights(&[0.0, 0.0]), [0.0, 0.0]);
+    }
+
+    /// A point light of 1e38 W/sr: its power `4 pi I` overflows `f32`,
+    /// which gave it weight 0 beside a weak light (and nothing to sample
+    /// alone).
+    #[test]
+    fn a_point_light_whose_power_overflows_f32_is_chosen_by_its_power() {
+        let mut scene = SceneBuilder::new(std::path::Path::new("t.toml")).build();
+        scene.point_lights = vec![
+            PointLight::new(Vec3::Y, Vec3::splat(1e38)),
+            PointLight::new(Vec3::Y, Vec3::ONE),
+        ];
+        let lights = Lights::new(&scene);
+        assert_eq!(lights.select.pmf(0), 1.0);
+        assert!(lights.select.pmf(1) > 0.0, "the weak light keeps a chance");
+        scene.point_lights.truncate(1);
+        assert!(!Lights::new(&scene).is_empty());
+    }
+}
