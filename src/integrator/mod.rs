@@ -161,32 +161,57 @@ impl<'a> PathTracer<'a> {
     }
 }
 
-/// The compiled kernel for each combination of the flags that the estimator
-/// specialises on (the lens is handled by [`PathTracer::camera_ray`]).
+/// The compiled kernel for the flags of `k` that the estimator specialises
+/// on (the lens is handled by [`PathTracer::camera_ray`]). Each step turns
+/// one run-time flag into a const generic of the same name and hands on to
+/// the next, so every one of the 32 combinations is compiled and the last
+/// step names one.
 fn select_kernel<'a>(k: Kernel) -> TraceFn<'a> {
-    macro_rules! pick {
-        ($($m:literal $d:literal $e:literal $a:literal $s:literal),* $(,)?) => {
-            match (k.materials, k.delta, k.environment, k.emitters, k.shapes) {
-                $(($m, $d, $e, $a, $s) => PathTracer::trace_kernel::<$m, $d, $e, $a, $s>,)*
-            }
-        };
+    if k.materials {
+        bind_delta::<true>(k)
+    } else {
+        bind_delta::<false>(k)
     }
-    pick!(
-        false false false false false, false false false false true,
-        false false false true false, false false false true true,
-        false false true false false, false false true false true,
-        false false true true false, false false true true true,
-        false true false false false, false true false false true,
-        false true false true false, false true false true true,
-        false true true false false, false true true false true,
-        false true true true false, false true true true true,
-        true false false false false, true false false false true,
-        true false false true false, true false false true true,
-        true false true false false, true false true false true,
-        true false true true false, true false true true true,
-        true true false false false, true true false false true,
-        true true false true false, true true false true true,
-        true true true false false, true true true false true,
-        true true true true false, true true true true true,
-    )
+}
+
+fn bind_delta<'a, const MATERIALS: bool>(k: Kernel) -> TraceFn<'a> {
+    if k.delta {
+        bind_environment::<MATERIALS, true>(k)
+    } else {
+        bind_environment::<MATERIALS, false>(k)
+    }
+}
+
+fn bind_environment<'a, const MATERIALS: bool, const DELTA: bool>(k: Kernel) -> TraceFn<'a> {
+    if k.environment {
+        bind_emitters::<MATERIALS, DELTA, true>(k)
+    } else {
+        bind_emitters::<MATERIALS, DELTA, false>(k)
+    }
+}
+
+fn bind_emitters<'a, const MATERIALS: bool, const DELTA: bool, const ENVIRONMENT: bool>(
+    k: Kernel,
+) -> TraceFn<'a> {
+    if k.emitters {
+        bind_shapes::<MATERIALS, DELTA, ENVIRONMENT, true>(k)
+    } else {
+        bind_shapes::<MATERIALS, DELTA, ENVIRONMENT, false>(k)
+    }
+}
+
+fn bind_shapes<
+    'a,
+    const MATERIALS: bool,
+    const DELTA: bool,
+    const ENVIRONMENT: bool,
+    const EMITTERS: bool,
+>(
+    k: Kernel,
+) -> TraceFn<'a> {
+    if k.shapes {
+        PathTracer::trace_kernel::<MATERIALS, DELTA, ENVIRONMENT, EMITTERS, true>
+    } else {
+        PathTracer::trace_kernel::<MATERIALS, DELTA, ENVIRONMENT, EMITTERS, false>
+    }
 }

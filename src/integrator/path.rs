@@ -178,32 +178,37 @@ const NO_RAY: Ray = Ray {
 
 impl<'a> PathTracer<'a> {
     /// Trace the paths of `lanes` (at most [`BATCH`]) to the end, in
-    /// lockstep; each lane's `l` then holds its sample's radiance.
+    /// lockstep; each lane's `l` then holds its sample's radiance. The const
+    /// parameters are the flags of [`crate::plan::Kernel`] of the same names
+    /// (the lens is the camera ray's): code for an effect whose flag is off
+    /// is compiled out.
     pub(super) fn trace_kernel<
-        const M: bool,
-        const D: bool,
-        const E: bool,
-        const A: bool,
-        const S: bool,
+        const MATERIALS: bool,
+        const DELTA: bool,
+        const ENVIRONMENT: bool,
+        const EMITTERS: bool,
+        const SHAPES: bool,
     >(
         &self,
         lanes: &mut [Lane],
         rays: &mut RayCounts,
     ) {
-        if M {
-            self.trace_lanes::<Bsdf, M, D, E, A, S>(lanes, rays);
+        if MATERIALS {
+            self.trace_lanes::<Bsdf, MATERIALS, DELTA, ENVIRONMENT, EMITTERS, SHAPES>(lanes, rays);
         } else {
-            self.trace_lanes::<Diffuse, M, D, E, A, S>(lanes, rays);
+            self.trace_lanes::<Diffuse, MATERIALS, DELTA, ENVIRONMENT, EMITTERS, SHAPES>(
+                lanes, rays,
+            );
         }
     }
 
     fn trace_lanes<
         B: KernelBsdf,
-        const M: bool,
-        const D: bool,
-        const E: bool,
-        const A: bool,
-        const S: bool,
+        const MATERIALS: bool,
+        const DELTA: bool,
+        const ENVIRONMENT: bool,
+        const EMITTERS: bool,
+        const SHAPES: bool,
     >(
         &self,
         lanes: &mut [Lane],
@@ -245,16 +250,19 @@ impl<'a> PathTracer<'a> {
             // --- what each hit adds, and whether its path goes on ---
             for k in 0..n {
                 let i = slot[k];
-                shade[i] = self.arrive::<B, M, D, E, A, S>(&mut lanes[i], hits[k]);
+                shade[i] = self.arrive::<B, MATERIALS, DELTA, ENVIRONMENT, EMITTERS, SHAPES>(
+                    &mut lanes[i],
+                    hits[k],
+                );
             }
 
             // --- direct lighting: light sampling, shadow rays in batches ---
-            self.sample_lights::<B, D, S>(lanes, &shade, rays);
+            self.sample_lights::<B, DELTA, SHAPES>(lanes, &shade, rays);
 
             // --- BSDF sampling: each live path's next ray ---
             for (lane, sh) in lanes.iter_mut().zip(shade.iter_mut()) {
                 if let Some(s) = sh {
-                    self.scatter::<B, M, D, S>(lane, s);
+                    self.scatter::<B, MATERIALS, DELTA, SHAPES>(lane, s);
                     *sh = None;
                 }
             }
@@ -267,45 +275,45 @@ impl<'a> PathTracer<'a> {
     #[inline]
     fn arrive<
         B: KernelBsdf,
-        const M: bool,
-        const D: bool,
-        const E: bool,
-        const A: bool,
-        const S: bool,
+        const MATERIALS: bool,
+        const DELTA: bool,
+        const ENVIRONMENT: bool,
+        const EMITTERS: bool,
+        const SHAPES: bool,
     >(
         &self,
         lane: &mut Lane,
         hit: Option<Hit>,
     ) -> Option<Shade<B>> {
-        let its = hit.map(|h| self.interaction::<S>(&lane.ray, &h));
+        let its = hit.map(|h| self.interaction::<SHAPES>(&lane.ray, &h));
         if lane.depth == 0 {
             // --- emission seen directly ---
             let Some(its) = its else {
-                if E {
+                if ENVIRONMENT {
                     lane.l += self.lights.environment(lane.ray.d);
                 }
                 lane.alive = false;
                 return None;
             };
-            if A {
+            if EMITTERS {
                 lane.l += self.zero_bounce_radiance(&its);
             }
             if self.settings.max_depth < 1 {
                 lane.alive = false;
                 return None;
             }
-            return Some(self.shading_point::<B, M, S>(its));
+            return Some(self.shading_point::<B, MATERIALS, SHAPES>(its));
         }
 
         // --- emission found by the last BSDF sample (the other half of
         // that bounce's direct lighting) ---
         let prev = lane.prev;
         let direct = self.settings.direct;
-        if (A || E) && (direct != DirectStrategy::Light || prev.delta) {
+        if (EMITTERS || ENVIRONMENT) && (direct != DirectStrategy::Light || prev.delta) {
             let wi = lane.ray.d;
             let (le, light_pdf) = match &its {
-                None if E => self.lights.environment_and_pdf(wi),
-                Some(n) if A => (
+                None if ENVIRONMENT => self.lights.environment_and_pdf(wi),
+                Some(n) if EMITTERS => (
                     self.lights.le(self.scene, n.prim, n.sp.n, n.wo),
                     // the density light sampling had, from where it sampled
                     self.lights.pdf_area(&prev.from, n.prim, &n.sp),
@@ -335,7 +343,7 @@ impl<'a> PathTracer<'a> {
         if lane.depth >= self.settings.rr_depth {
             let q = match self.settings.roulette {
                 Roulette::Throughput => {
-                    let b = if M {
+                    let b = if MATERIALS {
                         lane.beta * lane.eta_scale
                     } else {
                         lane.beta
@@ -352,31 +360,31 @@ impl<'a> PathTracer<'a> {
             lane.beta /= q;
         }
         debug_assert!(lane.beta.is_finite(), "throughput became {}", lane.beta);
-        Some(self.shading_point::<B, M, S>(its))
+        Some(self.shading_point::<B, MATERIALS, SHAPES>(its))
     }
 
     /// The BSDF, frame and ray origin of a bounce at `its`.
     #[inline]
-    fn shading_point<B: KernelBsdf, const M: bool, const S: bool>(
+    fn shading_point<B: KernelBsdf, const MATERIALS: bool, const SHAPES: bool>(
         &self,
         its: Interaction,
     ) -> Shade<B> {
         // without spheres every primitive is a triangle: no dispatch
-        let m = if S {
+        let m = if SHAPES {
             self.scene.material_index(its.prim)
         } else {
             self.scene.tri_material[its.prim as usize]
         } as usize;
         let bsdf = B::at(self, &its, m);
         // A BSDF that transmits needs the outward normal (bsdf module docs).
-        let transmits = M && bsdf.has_transmission();
+        let transmits = MATERIALS && bsdf.has_transmission();
         let frame = Frame::from_normal(if transmits && its.ng != its.sp.n {
             -its.ns
         } else {
             its.ns
         });
         // Rays to the front of a smooth triangle leave from above it.
-        let from = if S && !transmits {
+        let from = if SHAPES && !transmits {
             self.terminator_point(&its)
         } else {
             None
@@ -395,7 +403,7 @@ impl<'a> PathTracer<'a> {
     /// rounds, each drawing one light sample per lane and tracing the
     /// round's shadow rays as one batch; each lane adds the mean of its
     /// unoccluded samples times its throughput.
-    fn sample_lights<B: KernelBsdf, const D: bool, const S: bool>(
+    fn sample_lights<B: KernelBsdf, const DELTA: bool, const SHAPES: bool>(
         &self,
         lanes: &mut [Lane],
         shade: &[Option<Shade<B>>; BATCH],
@@ -405,7 +413,7 @@ impl<'a> PathTracer<'a> {
         let use_light = direct != DirectStrategy::Bsdf;
         let mis = direct == DirectStrategy::Mis;
         // Delta lights can only be light-sampled, whatever the strategy.
-        let sample_lights = use_light || (D && self.lights.has_delta());
+        let sample_lights = use_light || (DELTA && self.lights.has_delta());
         if !sample_lights || self.lights.is_empty() {
             return;
         }
@@ -423,7 +431,7 @@ impl<'a> PathTracer<'a> {
             let mut n = 0;
             for (i, (lane, sh)) in lanes.iter_mut().zip(shade).enumerate() {
                 // useless on a pure delta BSDF
-                let Some(sh) = sh.as_ref().filter(|sh| !(D && sh.bsdf.is_delta())) else {
+                let Some(sh) = sh.as_ref().filter(|sh| !(DELTA && sh.bsdf.is_delta())) else {
                     continue;
                 };
                 any = true;
@@ -433,13 +441,13 @@ impl<'a> PathTracer<'a> {
                 let Some(ls) = self.lights.sample(self.scene, from, u_sel, u) else {
                     continue;
                 };
-                let delta_light = D && ls.delta;
+                let delta_light = DELTA && ls.delta;
                 if !use_light && !delta_light {
                     continue;
                 }
                 // no light through the geometric surface, whatever the
                 // shading normal says (a no-op when shading flat)
-                if S && !sh.transmits && ls.wi.dot(sh.its.ng) <= 0.0 {
+                if SHAPES && !sh.transmits && ls.wi.dot(sh.its.ng) <= 0.0 {
                     continue;
                 }
                 let wi_local = sh.frame.to_local(ls.wi);
@@ -483,7 +491,7 @@ impl<'a> PathTracer<'a> {
     /// BSDF sampling at `sh`: the lane's next ray and throughput, or the
     /// end of its path.
     #[inline]
-    fn scatter<B: KernelBsdf, const M: bool, const D: bool, const S: bool>(
+    fn scatter<B: KernelBsdf, const MATERIALS: bool, const DELTA: bool, const SHAPES: bool>(
         &self,
         lane: &mut Lane,
         sh: &Shade<B>,
@@ -498,7 +506,7 @@ impl<'a> PathTracer<'a> {
         // says: reflection on wo's side, transmission on the other (a no-op
         // when shading flat)
         let refracted = bs.wi.z * sh.wo_local.z < 0.0;
-        if S && ((wi.dot(its.ng) > 0.0) == refracted) {
+        if SHAPES && ((wi.dot(its.ng) > 0.0) == refracted) {
             lane.alive = false;
             return;
         }
@@ -510,11 +518,11 @@ impl<'a> PathTracer<'a> {
         lane.prev = Prev {
             beta_weight: lane.beta * weight,
             pdf: bs.pdf,
-            delta: D && bs.delta,
+            delta: DELTA && bs.delta,
             from: sh.from.unwrap_or(its.sp),
         };
         lane.beta *= weight;
-        if M && sh.transmits && refracted {
+        if MATERIALS && sh.transmits && refracted {
             // undo the 1 / eta'^2 of the refraction for the roulette
             let etap = if sh.wo_local.z > 0.0 {
                 sh.bsdf.eta()
@@ -527,15 +535,15 @@ impl<'a> PathTracer<'a> {
     }
 
     #[inline]
-    pub(super) fn interaction<const S: bool>(&self, ray: &Ray, hit: &Hit) -> Interaction {
-        let sp = if S {
+    pub(super) fn interaction<const SHAPES: bool>(&self, ray: &Ray, hit: &Hit) -> Interaction {
+        let sp = if SHAPES {
             self.scene.hit_point(ray, hit)
         } else {
             self.scene.surface_point(hit.prim, hit.u, hit.v)
         };
         let wo = -ray.d;
         let ng = if sp.n.dot(wo) < 0.0 { -sp.n } else { sp.n };
-        let ns = if S {
+        let ns = if SHAPES {
             self.shading_normal(hit, ng, wo)
         } else {
             ng
