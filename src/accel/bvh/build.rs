@@ -188,9 +188,9 @@ impl Info {
     }
 }
 
-/// How a range is split (or not).
+/// How a range is split (or not): the builder's choice for it.
 #[derive(Debug, Clone, Copy)]
-enum Plan {
+enum SplitChoice {
     /// Make a leaf.
     Leaf,
     /// Triangles whose bin on `axis` is below `bin` go left.
@@ -214,7 +214,7 @@ struct Item<'a> {
     offset: usize,
     depth: usize,
     info: Info,
-    plan: Plan,
+    choice: SplitChoice,
 }
 
 /// The largest range allowed at binary depth `depth`.
@@ -294,17 +294,17 @@ fn bins_of(c: Vec3A, lo: Vec3A, scale: Vec3A, bins: usize) -> [usize; 3] {
         .map(|v| (v.to_bits() & 0xffff) as usize)
 }
 
-/// A split candidate: its SAH cost, the plan, and how many triangles go left.
+/// A split candidate: its SAH cost, the choice, and how many triangles go left.
 struct Candidate {
     cost: f32,
-    plan: Plan,
+    choice: SplitChoice,
     left: usize,
 }
 
 /// The best binned split of a range, or `None` when all centroids coincide.
 /// With `sample`, a range of more than 2^[`SAMPLE_SHIFT`] triangles bins a
 /// strided sample, and the candidate's count on the left is an estimate.
-fn binned_plan<const B: usize>(prims: &[PrimRef], info: &Info, sample: bool) -> Option<Candidate> {
+fn binned_split<const B: usize>(prims: &[PrimRef], info: &Info, sample: bool) -> Option<Candidate> {
     let lo = info.centers.min;
     let extent = info.centers.max - lo;
     // scale so that the largest centroid lands in the last bin
@@ -370,7 +370,7 @@ fn binned_plan<const B: usize>(prims: &[PrimRef], info: &Info, sample: bool) -> 
             }
             let cost = split_cost(parent, left.half_area(), nl, right_area[b], nr);
             if best.as_ref().is_none_or(|c| cost < c.cost) {
-                let plan = Plan::Binned {
+                let choice = SplitChoice::Binned {
                     axis,
                     lo: lo[axis],
                     scale: scale[axis],
@@ -379,7 +379,7 @@ fn binned_plan<const B: usize>(prims: &[PrimRef], info: &Info, sample: bool) -> 
                 };
                 best = Some(Candidate {
                     cost,
-                    plan,
+                    choice,
                     left: nl,
                 });
             }
@@ -406,7 +406,7 @@ fn sort_keys(prims: &[PrimRef], axis: usize, keys: &mut [u64]) {
 
 /// The best split over every position of the centroids sorted on each
 /// axis; leaves `prims` sorted on the winning axis.
-fn sweep_plan(prims: &mut [PrimRef], info: &Info) -> Option<Candidate> {
+fn sweep_split(prims: &mut [PrimRef], info: &Info) -> Option<Candidate> {
     let n = prims.len();
     let parent = info.bounds.half_area().max(f32::MIN_POSITIVE);
     // scratch on the stack for small ranges, the heap for large ones: the
@@ -469,7 +469,7 @@ fn sweep_plan(prims: &mut [PrimRef], info: &Info) -> Option<Candidate> {
     }
     Some(Candidate {
         cost,
-        plan: Plan::Sorted { at },
+        choice: SplitChoice::Sorted { at },
         left: at,
     })
 }
@@ -504,9 +504,9 @@ impl<'a> Item<'a> {
             offset,
             depth,
             info,
-            plan: Plan::Leaf,
+            choice: SplitChoice::Leaf,
         };
-        item.plan = item.choose(quality);
+        item.choice = item.choose(quality);
         item
     }
 
@@ -514,50 +514,54 @@ impl<'a> Item<'a> {
         self.prims.len()
     }
 
-    fn choose(&mut self, quality: BvhQuality) -> Plan {
+    fn choose(&mut self, quality: BvhQuality) -> SplitChoice {
         let n = self.len();
         // a split costs at least TRAVERSAL_COST, so a leaf that costs no
         // more wins without measuring any split (the SAH would say so too)
         if leaf_cost(n) <= TRAVERSAL_COST || self.depth >= MAX_DEPTH {
             debug_assert!(n <= LEAF_MAX, "the depth bound keeps deep ranges small");
-            return Plan::Leaf;
+            return SplitChoice::Leaf;
         }
-        let median = Plan::Median {
+        let median = SplitChoice::Median {
             axis: longest_axis(self.info.centers.max - self.info.centers.min),
         };
         let best = match quality {
-            _ if n <= SMALL => sweep_plan(self.prims, &self.info),
+            _ if n <= SMALL => sweep_split(self.prims, &self.info),
             // the depth bound needs exact counts only where a half could
             // exceed the capacity one level down
             BvhQuality::Fast => {
                 let sample = n <= capacity(self.depth + 1);
-                binned_plan::<BINS>(self.prims, &self.info, sample)
+                binned_split::<BINS>(self.prims, &self.info, sample)
             }
-            BvhQuality::High if n <= SWEEP_MAX => sweep_plan(self.prims, &self.info),
-            BvhQuality::High => binned_plan::<HIGH_BINS>(self.prims, &self.info, false),
+            BvhQuality::High if n <= SWEEP_MAX => sweep_split(self.prims, &self.info),
+            BvhQuality::High => binned_split::<HIGH_BINS>(self.prims, &self.info, false),
         };
         let Some(best) = best else {
             // every centroid equal: split by count if the leaf would be too big
-            return if n > LEAF_MAX { median } else { Plan::Leaf };
+            return if n > LEAF_MAX {
+                median
+            } else {
+                SplitChoice::Leaf
+            };
         };
         if n <= LEAF_MAX && leaf_cost(n) <= best.cost {
-            return Plan::Leaf;
+            return SplitChoice::Leaf;
         }
         // keep the depth bound: each half must fit one level further down
         if best.left.max(n - best.left) > capacity(self.depth + 1) {
             median
         } else {
-            best.plan
+            best.choice
         }
     }
 
-    /// Apply the plan: two halves one level down.
+    /// Apply the choice: two halves one level down.
     fn split(self, quality: BvhQuality) -> (Item<'a>, Item<'a>) {
         let n = self.len();
         // the binned partition measures both halves as it goes
-        let (mid, infos) = match self.plan {
-            Plan::Leaf => unreachable!("split is only called on planned splits"),
-            Plan::Binned {
+        let (mid, infos) = match self.choice {
+            SplitChoice::Leaf => unreachable!("split is only called on chosen splits"),
+            SplitChoice::Binned {
                 axis,
                 lo,
                 scale,
@@ -569,8 +573,8 @@ impl<'a> Item<'a> {
                 });
                 (mid, Some((l, r)))
             }
-            Plan::Sorted { at } => (at, None),
-            Plan::Median { axis } => {
+            SplitChoice::Sorted { at } => (at, None),
+            SplitChoice::Median { axis } => {
                 self.prims.select_nth_unstable_by(n / 2, by_center(axis));
                 (n / 2, None)
             }
@@ -673,7 +677,7 @@ impl Built {
 
 /// Build the subtree for an item that splits.
 fn build_inner(item: Item<'_>, quality: BvhQuality) -> Built {
-    debug_assert!(!matches!(item.plan, Plan::Leaf));
+    debug_assert!(!matches!(item.choice, SplitChoice::Leaf));
     let large = item.len() >= PARALLEL_MIN;
     let mut slots: Vec<Item<'_>> = Vec::with_capacity(WIDTH);
     slots.push(item);
@@ -682,7 +686,7 @@ fn build_inner(item: Item<'_>, quality: BvhQuality) -> Built {
     for _ in 0..LEVELS {
         let mut next = Vec::with_capacity(WIDTH);
         for s in slots {
-            if matches!(s.plan, Plan::Leaf) {
+            if matches!(s.choice, SplitChoice::Leaf) {
                 next.push(s);
             } else {
                 let (c, d) = s.split(quality);
@@ -696,7 +700,7 @@ fn build_inner(item: Item<'_>, quality: BvhQuality) -> Built {
         let pick = slots
             .iter()
             .enumerate()
-            .filter(|(_, s)| !matches!(s.plan, Plan::Leaf))
+            .filter(|(_, s)| !matches!(s.choice, SplitChoice::Leaf))
             .max_by(|x, y| {
                 x.1.info
                     .bounds
@@ -710,8 +714,8 @@ fn build_inner(item: Item<'_>, quality: BvhQuality) -> Built {
     }
     let child = |s: Item<'_>| {
         let bounds = s.info.bounds;
-        let built = match s.plan {
-            Plan::Leaf => Built::Leaf {
+        let built = match s.choice {
+            SplitChoice::Leaf => Built::Leaf {
                 start: s.offset,
                 count: s.len(),
             },
@@ -837,8 +841,8 @@ pub struct Tree {
 pub fn build(prims: &mut [PrimRef], quality: BvhQuality) -> Tree {
     let root = Item::new(prims, 0, 0, quality);
     let bounds = root.info.bounds;
-    let built = match root.plan {
-        Plan::Leaf => Built::Leaf {
+    let built = match root.choice {
+        SplitChoice::Leaf => Built::Leaf {
             start: 0,
             count: root.len(),
         },
