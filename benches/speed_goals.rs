@@ -15,7 +15,7 @@
 //! table, then one line per goal, and exits non-zero if a goal is missed.
 
 use embertrace::accel::{AccelOptions, Backend};
-use embertrace::commands::bench::throughput::{self as bench, BenchSettings};
+use embertrace::commands::bench::throughput::{self as bench, ThroughputSettings};
 use embertrace::scene::Scene;
 use std::process::ExitCode;
 
@@ -49,7 +49,7 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    let settings = BenchSettings {
+    let settings = ThroughputSettings {
         backends: vec![Backend::Embree, Backend::Bvh],
         threads: 0,
         reps: env("SPEED_GOALS_REPS", 5),

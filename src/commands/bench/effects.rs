@@ -31,7 +31,7 @@ use std::sync::Arc;
 
 /// Settings of the effects benchmark.
 #[derive(Debug, Clone)]
-pub struct EffectsBenchSettings {
+pub struct EffectCostSettings {
     /// Backend for every row.
     pub backend: Backend,
     /// Image width and height.
@@ -48,7 +48,7 @@ pub struct EffectsBenchSettings {
 
 /// One variant's figures.
 #[derive(Debug, Clone, Serialize)]
-pub struct EffectsRow {
+pub struct EffectCostRow {
     /// What was added.
     pub variant: String,
     /// The kernel that ran.
@@ -65,7 +65,7 @@ pub struct EffectsRow {
 
 /// The whole table.
 #[derive(Debug, Clone, Serialize)]
-pub struct EffectsReport {
+pub struct EffectCostReport {
     /// Scene file.
     pub scene: String,
     /// Backend.
@@ -77,7 +77,7 @@ pub struct EffectsReport {
     /// Repetitions per figure.
     pub reps: usize,
     /// Rows.
-    pub rows: Vec<EffectsRow>,
+    pub rows: Vec<EffectCostRow>,
 }
 
 /// A variant of the base scene: its name, the scene and whether to force the
@@ -209,10 +209,10 @@ fn variants(base: &Scene) -> Vec<Variant> {
 /// Run the benchmark on `base`; `progress` gets a line per repetition.
 pub fn run(
     base: &Scene,
-    settings: &EffectsBenchSettings,
+    settings: &EffectCostSettings,
     integrator: IntegratorSettings,
     progress: &dyn Fn(&str),
-) -> Result<EffectsReport> {
+) -> Result<EffectCostReport> {
     let variants = variants(base);
     let mut accels = Vec::new();
     for v in &variants {
@@ -266,7 +266,7 @@ pub fn run(
         } else {
             plan.kernel
         };
-        rows.push(EffectsRow {
+        rows.push(EffectCostRow {
             variant: v.name.to_string(),
             kernel: kernel.describe(),
             effects: plan.on().iter().map(|s| s.to_string()).collect(),
@@ -279,7 +279,7 @@ pub fn run(
     for r in &mut rows {
         r.relative = r.ns_per_sample / first;
     }
-    Ok(EffectsReport {
+    Ok(EffectCostReport {
         scene: base.source.display().to_string(),
         backend: settings.backend.name().to_string(),
         resolution: settings.resolution,
@@ -289,7 +289,7 @@ pub fn run(
     })
 }
 
-impl EffectsReport {
+impl EffectCostReport {
     /// The table as Markdown.
     pub fn table(&self) -> String {
         let mut s = format!(

@@ -118,7 +118,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         return Ok(());
     }
     if args.effects {
-        let settings = crate::commands::bench::effects::EffectsBenchSettings {
+        let settings = crate::commands::bench::effects::EffectCostSettings {
             backend,
             resolution: resolved.resolution,
             spp: resolved.spp,
@@ -143,7 +143,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             .filter(|&b| b != Backend::Naive || scene.triangle_count() <= NAIVE_BENCH_LIMIT)
             .collect(),
     };
-    let settings = BenchSettings {
+    let settings = ThroughputSettings {
         backends,
         threads: args.threads,
         reps: args.reps,

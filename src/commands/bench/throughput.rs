@@ -20,7 +20,7 @@ use serde::Serialize;
 use std::time::Instant;
 
 /// Ray kinds timed by `bench`.
-pub const BENCH_KINDS: [RayKind; 4] = [
+pub const THROUGHPUT_RAY_KINDS: [RayKind; 4] = [
     RayKind::Camera,
     RayKind::Shadow,
     RayKind::Diffuse,
@@ -69,7 +69,7 @@ pub struct BackendResult {
 
 /// The whole benchmark.
 #[derive(Debug, Clone, Serialize)]
-pub struct BenchReport {
+pub struct ThroughputReport {
     /// Scene file.
     pub scene: String,
     /// Triangles.
@@ -121,7 +121,7 @@ fn trace_parallel(accel: &dyn Accelerator, set: &RaySet) -> usize {
 
 /// Settings of a benchmark run.
 #[derive(Debug, Clone)]
-pub struct BenchSettings {
+pub struct ThroughputSettings {
     /// Backends to measure.
     pub backends: Vec<Backend>,
     /// Threads for the "all" columns; 0 = all cores.
@@ -137,9 +137,9 @@ pub struct BenchSettings {
 /// Run the benchmark on `scene`. `progress` receives a line per step.
 pub fn run(
     scene: &Scene,
-    settings: &BenchSettings,
+    settings: &ThroughputSettings,
     progress: &dyn Fn(&str),
-) -> Result<BenchReport> {
+) -> Result<ThroughputReport> {
     let pool = crate::render::thread_pool(settings.threads)?;
     let threads = pool.current_num_threads();
     let reps = settings.reps.max(1);
@@ -150,7 +150,7 @@ pub fn run(
         .first()
         .ok_or_else(|| Error::Settings("no backend to benchmark".into()))?;
     let generator = accel::build(*first, scene.soup(), settings.options)?;
-    let sets: Vec<RaySet> = BENCH_KINDS
+    let sets: Vec<RaySet> = THROUGHPUT_RAY_KINDS
         .iter()
         .map(|&k| raysets::generate(scene, generator.as_ref(), k, settings.rays, 1))
         .collect();
@@ -229,7 +229,7 @@ pub fn run(
             kinds,
         });
     }
-    Ok(BenchReport {
+    Ok(ThroughputReport {
         scene: scene.source.display().to_string(),
         triangles: scene.triangle_count(),
         threads,
@@ -238,7 +238,7 @@ pub fn run(
     })
 }
 
-impl BenchReport {
+impl ThroughputReport {
     /// The table printed on stdout.
     pub fn table(&self) -> String {
         let mut out = format!(
@@ -246,7 +246,7 @@ impl BenchReport {
             self.scene, self.triangles, self.reps, self.threads
         );
         out += &format!("{:<8} {:>9} {:>9}", "backend", "build ms", "B/tri");
-        for k in BENCH_KINDS {
+        for k in THROUGHPUT_RAY_KINDS {
             out += &format!(" {:>17}", k.name());
         }
         out.push('\n');
