@@ -3,6 +3,9 @@
 //! Intel Embree (or the brute-force oracle) answers ray queries through the
 //! [`accel::Accelerator`] trait; everything else (scene loading, camera,
 //! sampling, BSDFs, lights, the estimator, the film and image files) is Rust.
+// `unsafe` lives in one place, the Embree module (`accel::embree`), which
+// allows it for itself.
+#![deny(unsafe_code)]
 #![deny(unsafe_op_in_unsafe_fn)]
 #![warn(missing_docs)]
 // `!(x > 0.0)` is the deliberate NaN-rejecting form throughout.

@@ -21,7 +21,10 @@ pub mod naive;
 pub mod sphere;
 pub mod triangle;
 
+// The crate's one `unsafe` island: the FFI to Embree (lib.rs denies
+// `unsafe` everywhere else).
 #[cfg(any(feature = "embree", feature = "embree4"))]
+#[allow(unsafe_code)]
 pub mod embree;
 
 use crate::error::Result;
