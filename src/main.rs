@@ -10,7 +10,7 @@ use std::process::ExitCode;
 #[command(
     name = "embertrace",
     version,
-    about = "A physically based path tracer (Embree or brute force for ray queries).",
+    about = "A physically based path tracer (ray queries by Embree, a pure-Rust BVH or brute force).",
     after_help = "The classic form `embertrace -t 8 -s 64 -l 16 -m 5 -r 480 360 -f out.png SCENE` means `embertrace render ...`."
 )]
 struct Cli {

@@ -10,7 +10,8 @@ use crate::commands::diff::{Image, compare};
 use crate::error::clip;
 use crate::error::{Error, Result};
 use crate::farm::{self, Shard};
-use crate::film::{self, OutputOptions};
+use crate::film;
+use crate::image::{self, OutputOptions};
 use crate::integrator::PathTracer;
 use crate::outputs::{self, Inputs};
 use crate::plan::{Plan, PlanMode};
@@ -64,7 +65,8 @@ pub struct RenderArgs {
     /// blue-noise error, dearer per sample) or independent (PCG32).
     #[arg(long, default_value_t = SamplerKind::default())]
     sampler: SamplerKind,
-    /// Ray-query backend: embree or naive [embree when compiled in].
+    /// Ray-query backend: embree, bvh (pure Rust) or naive (brute force)
+    /// [embree when compiled in, else bvh].
     #[arg(long)]
     accel: Option<Backend>,
     /// Direct lighting: mis, light or bsdf [scene default, else mis].
@@ -187,7 +189,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     .filter_map(|(flag, path)| Some((flag, path?.as_path())))
     .collect();
     outputs::check_distinct(&written)?;
-    film::check_output_path(&output)?;
+    image::check_output_path(&output)?;
     if let Some(r) = &args.report {
         crate::commands::render::report::check_report_path(r)?;
     }
@@ -219,7 +221,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     };
     budget.validate()?;
     if let Some(p) = &args.aov {
-        film::check_output_path(p)?;
+        image::check_output_path(p)?;
     }
     if let Some(c) = args.clamp {
         if !(c > 0.0 && c.is_finite()) {
@@ -234,7 +236,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
                 "--sample-map needs adaptive sampling (-a) or a budget: with a fixed spp every pixel gets the same".into(),
             ));
         }
-        film::check_output_path(p)?;
+        image::check_output_path(p)?;
     }
     if let Some(p) = &args.convergence {
         crate::commands::render::report::check_report_path(p)?;
@@ -386,7 +388,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         let out = render_farm(&args, &tracer, &camera, &settings, &provenance, &say)?;
         // a part, or a checkpointed render's .exr: the state itself (whose
         // R, G, B are the image), so merge can take it too
-        if farm_part || film::ImageFormat::from_path(&output)? == film::ImageFormat::Exr {
+        if farm_part || image::ImageFormat::from_path(&output)? == image::ImageFormat::Exr {
             part_provenance = Some(provenance);
         }
         (out, None)
@@ -438,7 +440,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         };
         let po = render_progressive(&tracer, &camera, &settings, &budget, &mut on_pass)?;
         if let Some(path) = &args.convergence {
-            film::write_file_atomically(path, log.as_bytes())?;
+            image::write_file_atomically(path, log.as_bytes())?;
         }
         if let Some(path) = &args.sample_map {
             write_sample_map(path, w, h, &po.pixel_samples)?;
@@ -520,7 +522,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     };
     match &part_provenance {
         Some(p) => farm::write_accumulation(&output, &out.film, p)?,
-        None => film::write_image(&output, &out.film, &options)?,
+        None => image::write_image(&output, &out.film, &options)?,
     }
     if let Some(path) = &args.variance {
         write_variance(path, &out.film)?;
@@ -547,14 +549,14 @@ fn write_sample_map(path: &std::path::Path, w: u32, h: u32, counts: &[u32]) -> R
         .iter()
         .flat_map(|&c| crate::commands::diff::ramp(c as f64 / top))
         .collect();
-    film::write_png_rgb8(path, w, h, &rgb)
+    image::write_png_rgb8(path, w, h, &rgb)
 }
 
 /// The map of rejected samples: per pixel, their count (EXR, PFM) or red
 /// brightening with the count, black where none (PNG).
 fn write_bad_sample_map(path: &std::path::Path, w: u32, h: u32, per_pixel: &[u32]) -> Result<()> {
     let count = |i: usize| per_pixel.get(i).copied().unwrap_or(0);
-    if film::ImageFormat::from_path(path)? == film::ImageFormat::Png {
+    if image::ImageFormat::from_path(path)? == image::ImageFormat::Png {
         let top = per_pixel.iter().copied().max().unwrap_or(0).max(1) as f32;
         let rgb: Vec<u8> = (0..w as usize * h as usize)
             .flat_map(|i| match count(i) {
@@ -562,12 +564,12 @@ fn write_bad_sample_map(path: &std::path::Path, w: u32, h: u32, per_pixel: &[u32
                 c => [(95.0 + 160.0 * c as f32 / top) as u8, 0, 0],
             })
             .collect();
-        return film::write_png_rgb8(path, w, h, &rgb);
+        return image::write_png_rgb8(path, w, h, &rgb);
     }
     let map: Vec<[f64; 3]> = (0..w as usize * h as usize)
         .map(|i| [count(i) as f64; 3])
         .collect();
-    film::write_rgb(path, w, h, &map, &OutputOptions::default())
+    image::write_rgb(path, w, h, &map, &OutputOptions::default())
 }
 
 /// Every setting that changes a render's image, for accumulation files:

@@ -1,0 +1,147 @@
+//! The library's front door: render a loaded [`Scene`] to an image in a few
+//! lines, with the same settings, limits and estimator as `embertrace
+//! render` (see the crate docs for an example).
+//!
+//! Anything left unset takes the scene file's value, else the renderer's
+//! default, exactly as a flag left off the command line does; the settings
+//! go through [`settings::resolve`], so the limits of [`crate::limits`] hold
+//! here too. The estimator runs the kernel specialised for the scene's
+//! effects ([`Plan`]), which renders the same image bits as the general one.
+
+use crate::accel::{self, AccelOptions, Backend};
+use crate::error::Result;
+use crate::film::Film;
+use crate::image::{self, OutputOptions};
+use crate::integrator::{PathTracer, RayCounts};
+use crate::plan::{Plan, PlanMode};
+use crate::render::{self, RenderSettings};
+use crate::sampler::SamplerKind;
+use crate::scene::Scene;
+use crate::settings::{self, Flags};
+use std::path::Path;
+
+/// A render of one scene, configured by chained setters and run by
+/// [`Renderer::render`].
+#[derive(Debug, Clone)]
+pub struct Renderer<'s> {
+    scene: &'s Scene,
+    backend: Backend,
+    sampler: SamplerKind,
+    flags: Flags,
+}
+
+impl<'s> Renderer<'s> {
+    /// A render of `scene` with its own settings, on the default backend
+    /// (Embree when compiled in) and the default sampler.
+    pub fn new(scene: &'s Scene) -> Self {
+        Renderer {
+            scene,
+            backend: Backend::default_backend(),
+            sampler: SamplerKind::default(),
+            flags: Flags::default(),
+        }
+    }
+
+    /// The ray-query backend.
+    pub fn backend(mut self, backend: Backend) -> Self {
+        self.backend = backend;
+        self
+    }
+
+    /// The sample generator.
+    pub fn sampler(mut self, sampler: SamplerKind) -> Self {
+        self.sampler = sampler;
+        self
+    }
+
+    /// Samples per pixel.
+    pub fn spp(mut self, spp: u32) -> Self {
+        self.flags.spp = Some(spp);
+        self
+    }
+
+    /// Image width and height in pixels.
+    pub fn resolution(mut self, width: u32, height: u32) -> Self {
+        self.flags.resolution = Some([width, height]);
+        self
+    }
+
+    /// Maximum path length in bounces.
+    pub fn max_depth(mut self, depth: u32) -> Self {
+        self.flags.max_depth = Some(depth);
+        self
+    }
+
+    /// Random seed: the same seed gives the same image bits, whatever the
+    /// thread count.
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.flags.seed = Some(seed);
+        self
+    }
+
+    /// Render threads; 0 (the default) is one per core.
+    pub fn threads(mut self, threads: usize) -> Self {
+        self.flags.threads = threads;
+        self
+    }
+
+    /// Build the backend and render. Errors: settings beyond the limits, a
+    /// backend that is not compiled in, or one that fails to build.
+    pub fn render(&self) -> Result<Rendered> {
+        let scene = self.scene;
+        let s = settings::resolve(&scene.render, scene.resolution, &self.flags)?;
+        let accel = accel::build(self.backend, scene.soup(), AccelOptions::default())?;
+        let kernel = Plan::new(scene, &s.integrator).kernel_for(PlanMode::Specialised);
+        let tracer = PathTracer::with_kernel(scene, accel.as_ref(), s.integrator, kernel);
+        let [w, h] = s.resolution;
+        let out = render::render(
+            &tracer,
+            &scene.make_camera(w, h),
+            &RenderSettings {
+                resolution: s.resolution,
+                spp: s.spp,
+                first_sample: 0,
+                total_spp: None,
+                seed: s.seed,
+                threads: s.threads,
+                tile_size: s.tile_size,
+                sampler: self.sampler,
+                clamp: None,
+            },
+            &|| {},
+        )?;
+        Ok(Rendered {
+            film: out.film,
+            rays: out.rays,
+            seconds: out.seconds,
+        })
+    }
+}
+
+/// A finished render.
+#[derive(Debug)]
+pub struct Rendered {
+    /// The accumulated film: per-pixel means and variances.
+    pub film: Film,
+    /// Rays traced, by kind.
+    pub rays: RayCounts,
+    /// Wall-clock seconds spent rendering.
+    pub seconds: f64,
+}
+
+impl Rendered {
+    /// Write the image; the extension picks the format (`.png`: 8-bit
+    /// sRGB, `.exr` and `.pfm`: linear `f32`), written atomically.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        image::write_image(path, &self.film, &OutputOptions::default())
+    }
+
+    /// The image as linear RGB, row by row from the top left.
+    pub fn pixels(&self) -> Vec<[f32; 3]> {
+        self.film
+            .to_rgb_f32()
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect()
+    }
+}
