@@ -1,0 +1,703 @@
+//! [`SceneBuilder`], the one way a loader makes a [`Scene`]: it gathers
+//! meshes, spheres, point lights and the [`WorldCamera`] in world space
+//! (f64), drops the triangles no backend should see (degenerate, non-finite,
+//! beyond [`MAX_COORDINATE`]) with one warning each, holds the scene to the
+//! limits of [`crate::limits`], and rebases everything to [`render_origin`]
+//! before it becomes f32.
+
+use super::{Material, MeshData, MeshRange, Scene, Transform};
+use crate::camera::{CameraDesc, ThinLens};
+use crate::error::{Error, Result};
+use crate::light::PointLight;
+use crate::limits::{MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
+use crate::math::{DVec3, Vec2, Vec3, needle_factor, triangle_normal};
+use crate::settings::RenderDefaults;
+use crate::shape::Sphere;
+use glam::DAffine3;
+use std::path::Path;
+
+/// A camera placed in world space (f64), before the scene is rebased.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WorldCamera {
+    /// Eye position.
+    pub origin: DVec3,
+    /// Point looked at.
+    pub target: DVec3,
+    /// Up direction (need not be orthogonal to the view direction).
+    pub up: Vec3,
+    /// Vertical field of view in degrees.
+    pub fov_y: f32,
+}
+
+impl WorldCamera {
+    /// A camera that frames the world box `[min, max]` (empty when `min > max`):
+    /// from the +z side, or looking down -y or -x on a box flat in y or x
+    /// (a floor, a wall), which seen from +z would be edge-on and empty.
+    pub fn framing(min: DVec3, max: DVec3) -> WorldCamera {
+        let fov_y = 39.3f32;
+        let (centre, size) = if min.x > max.x {
+            (DVec3::ZERO, DVec3::splat(2.0 / 3f64.sqrt()))
+        } else {
+            (0.5 * (min + max), max - min)
+        };
+        let radius = (0.5 * size.length()).max(1e-6);
+        let dist = radius / (0.5 * (fov_y as f64).to_radians()).sin() * 1.05;
+        // a box whose extent in y (or x) is under 1e-3 of its largest is flat
+        let flat = |k: f64| k < 1e-3 * size.max_element();
+        let (axis, up) = if flat(size.y) && !flat(size.z) {
+            (DVec3::Y, -Vec3::Z)
+        } else if flat(size.x) && !flat(size.z) {
+            (DVec3::X, Vec3::Y)
+        } else {
+            (DVec3::Z, Vec3::Y)
+        };
+        WorldCamera {
+            origin: centre + dist * axis,
+            target: centre,
+            up,
+            fov_y,
+        }
+    }
+}
+
+/// The world point a scene seen by `camera` is rebased to, so that positions
+/// near the camera keep f32's precision wherever the world puts them (the
+/// camera-relative render space of pbrt-v4, section 5.1.1 of *Physically
+/// Based Rendering*, 4th edition): the camera's position rounded to a
+/// multiple of `s`, the power of two nearest 8 times its distance `l` to its
+/// target (`2^(round(log2 l) + 3)`, between 5.7 and 11.3 times `l`: the
+/// unit view distances that Mitsuba's `to_world` cameras give sit in the
+/// middle of a step, not on its edge). Rounding keeps a scene near the
+/// world's origin as it is (zero until the camera is `s / 2` from it), and
+/// makes the subtraction exact for coordinates on a coarser grid than `s`. What
+/// rebasing cannot recover is precision the camera's own view lacks: a
+/// point `d` from the camera lands within about `d * 2^-24` of where it
+/// should in f32, whatever the world's offset.
+pub fn render_origin(camera: &WorldCamera) -> DVec3 {
+    let l = (camera.target - camera.origin).length();
+    if !(l > 0.0 && l.is_finite() && camera.origin.is_finite()) {
+        return DVec3::ZERO;
+    }
+    let s = 2f64.powi(l.log2().round() as i32 + 3);
+    (camera.origin / s).round() * s
+}
+
+/// A mesh placed in world space, waiting for the scene's render origin.
+#[derive(Debug)]
+struct Placed {
+    /// The mesh with world positions (f64), world normals and front-facing
+    /// winding.
+    mesh: MeshData,
+    /// Index of its first material in the scene's list.
+    base_material: u32,
+    /// Its line in the scene file.
+    line: Option<usize>,
+}
+
+/// Accumulates meshes, spheres, point lights and the camera in world space
+/// (f64) and builds a [`Scene`] rebased to [`render_origin`], dropping
+/// triangles no backend should see.
+#[derive(Debug)]
+pub struct SceneBuilder {
+    scene: Scene,
+    /// [`MAX_TRIANGLES`], lowered by unit tests.
+    max_triangles: u64,
+    /// Meshes in world space, in order.
+    placed: Vec<Placed>,
+    /// Triangles and vertices in `placed`.
+    counts: (u64, u64),
+    /// Spheres' world centres, radii and material indices.
+    spheres: Vec<(DVec3, f32, u32)>,
+    /// Point lights and their world positions.
+    point_lights: Vec<(DVec3, PointLight)>,
+    /// The camera, unless the scene is to be framed.
+    camera: Option<WorldCamera>,
+    /// Light a scene in which nothing emits with a uniform white
+    /// environment, with a note (a bare mesh), instead of warning.
+    pub(super) light_if_dark: bool,
+}
+
+impl SceneBuilder {
+    /// An empty scene read from `source`.
+    pub fn new(source: &Path) -> Self {
+        SceneBuilder {
+            scene: Scene {
+                source: source.to_path_buf(),
+                mesh_files: Vec::new(),
+                positions: Vec::new(),
+                indices: Vec::new(),
+                normals: Vec::new(),
+                needle: Vec::new(),
+                tri_material: Vec::new(),
+                materials: Vec::new(),
+                meshes: Vec::new(),
+                tri_uv: Vec::new(),
+                tri_shading_normals: Vec::new(),
+                spheres: Vec::new(),
+                sphere_material: Vec::new(),
+                environment: None,
+                environment_map: None,
+                point_lights: Vec::new(),
+                directional_lights: Vec::new(),
+                camera: CameraDesc {
+                    origin: Vec3::Z,
+                    target: Vec3::ZERO,
+                    up: Vec3::Y,
+                    fov_y: 39.3,
+                },
+                world_origin: DVec3::ZERO,
+                lens: ThinLens::PINHOLE,
+                focal_pixels: None,
+                resolution: [512, 512],
+                render: RenderDefaults::default(),
+                notes: Vec::new(),
+                warnings: Vec::new(),
+            },
+            max_triangles: MAX_TRIANGLES,
+            placed: Vec::new(),
+            counts: (0, 0),
+            spheres: Vec::new(),
+            point_lights: Vec::new(),
+            camera: None,
+            light_if_dark: false,
+        }
+    }
+
+    /// Add a mesh placed by `transform`. Triangles whose corners become
+    /// non-finite or leave [`MAX_COORDINATE`] are dropped with one warning
+    /// naming the mesh; zero-area triangles are dropped with a note (both
+    /// when the scene is built). For meshes built in code (tests, parity
+    /// scenes); loaders use [`SceneBuilder::add_mesh_from`], which also
+    /// enforces the scene limits.
+    pub fn add_mesh(&mut self, mesh: MeshData, transform: &Transform) {
+        self.place(mesh, transform.matrix(), None);
+    }
+
+    /// Add a mesh that the scene file describes at `line`, placed by
+    /// `transform`, after checking it against the scene-wide limits
+    /// ([`MAX_TRIANGLES`], [`MAX_VERTICES`]) and its own consistency (every
+    /// vertex and material index in range). Errors name the scene file and
+    /// `line`; nothing is added then.
+    pub fn add_mesh_from(
+        &mut self,
+        mesh: MeshData,
+        transform: &Transform,
+        line: Option<usize>,
+    ) -> Result<()> {
+        self.add_mesh_matrix(mesh, transform.matrix(), line)
+    }
+
+    /// [`SceneBuilder::add_mesh_from`] with any affine placement (a scene
+    /// format's matrix, composed in f64): normals go through the inverse
+    /// transpose, and a mirroring matrix (negative determinant) reverses the
+    /// winding.
+    pub fn add_mesh_matrix(
+        &mut self,
+        mesh: MeshData,
+        matrix: DAffine3,
+        line: Option<usize>,
+    ) -> Result<()> {
+        let s = &self.scene;
+        let fail = |msg: String| Err(Error::input(&s.source, line, msg));
+        let tris = self.counts.0 + mesh.indices.len() as u64;
+        if tris > self.max_triangles {
+            return fail(format!(
+                "mesh `{}` ({} triangles) would take the scene to {tris} triangles (at most {})",
+                mesh.name,
+                mesh.indices.len(),
+                self.max_triangles
+            ));
+        }
+        let verts = self.counts.1 + mesh.positions.len() as u64;
+        if verts > MAX_VERTICES {
+            return fail(format!(
+                "mesh `{}` ({} vertices) would take the scene to {verts} vertices (at most {MAX_VERTICES})",
+                mesh.name,
+                mesh.positions.len()
+            ));
+        }
+        let n = mesh.positions.len() as u64;
+        if mesh.indices.iter().flatten().any(|&i| i as u64 >= n)
+            || mesh.tri_material.len() != mesh.indices.len()
+            || mesh
+                .tri_material
+                .iter()
+                .any(|&m| m as usize >= mesh.materials.len())
+        {
+            return fail(format!(
+                "mesh `{}`: a vertex or material index is out of range",
+                mesh.name
+            ));
+        }
+        if mesh.uvs.is_empty() {
+            let used = |m: usize| mesh.tri_material.iter().any(|&t| t as usize == m);
+            if let Some((_, m)) = mesh
+                .materials
+                .iter()
+                .enumerate()
+                .find(|(i, m)| m.texture.is_some() && used(*i))
+            {
+                return fail(format!(
+                    "mesh `{}` has no texture coordinates (vt), but its material `{}` has a texture",
+                    mesh.name, m.name
+                ));
+            }
+        }
+        self.place(mesh, matrix, line);
+        Ok(())
+    }
+
+    /// Place `mesh` in world space: positions through `m` (f64), normals
+    /// through its inverse transpose, winding reversed by a mirror.
+    fn place(&mut self, mut mesh: MeshData, m: DAffine3, line: Option<usize>) {
+        let s = &mut self.scene;
+        s.warnings.append(&mut mesh.warnings);
+        for f in mesh.files.drain(..) {
+            if !s.mesh_files.contains(&f) {
+                s.mesh_files.push(f);
+            }
+        }
+        let base_material = s.materials.len() as u32;
+        s.materials.append(&mut mesh.materials);
+        for p in &mut mesh.positions {
+            *p = m.transform_point3(*p);
+        }
+        let normal_matrix = m.matrix3.inverse().transpose();
+        for corners in &mut mesh.normals {
+            *corners = corners.map(|n| {
+                // a zero, non-finite or degenerate normal shades flat; a
+                // unit one (to a few ulps) is kept as it is, so that a
+                // scene written out with its normals reads back to the
+                // same bits
+                let w = (normal_matrix * n.as_dvec3()).as_vec3();
+                let w = if (w.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON {
+                    w
+                } else {
+                    w.normalize_or_zero()
+                };
+                if w.is_finite() { w } else { Vec3::ZERO }
+            });
+        }
+        if m.matrix3.determinant() < 0.0 {
+            for t in &mut mesh.indices {
+                t.swap(1, 2);
+            }
+            for uv in &mut mesh.uvs {
+                uv.swap(1, 2);
+            }
+            for ns in &mut mesh.normals {
+                ns.swap(1, 2);
+            }
+        }
+        self.counts.0 += mesh.indices.len() as u64;
+        self.counts.1 += mesh.positions.len() as u64;
+        self.placed.push(Placed {
+            mesh,
+            base_material,
+            line,
+        });
+    }
+
+    /// Move a placed mesh into the scene's arrays, in render space (world
+    /// minus `origin`, rounded to f32), and report what was dropped.
+    fn rebase(&mut self, placed: Placed, origin: DVec3) {
+        let Placed {
+            mesh,
+            base_material,
+            line,
+        } = placed;
+        let s = &mut self.scene;
+        let base_vertex = s.positions.len() as u32;
+        s.positions
+            .extend(mesh.positions.iter().map(|&p| (p - origin).as_vec3()));
+        let start = s.indices.len() as u32;
+        // per-corner attributes line up with the triangles once any mesh has them
+        let keep_uv = !mesh.uvs.is_empty() || !s.tri_uv.is_empty();
+        let keep_normals = !mesh.normals.is_empty() || !s.tri_shading_normals.is_empty();
+        if keep_uv {
+            s.tri_uv.resize(s.indices.len(), [Vec2::ZERO; 3]);
+        }
+        if keep_normals {
+            s.tri_shading_normals
+                .resize(s.indices.len(), [Vec3::ZERO; 3]);
+        }
+        let (mut out_of_range, mut degenerate, mut lost_emitters) = (0usize, 0usize, 0usize);
+        for (k, (t, &mat)) in mesh.indices.iter().zip(&mesh.tri_material).enumerate() {
+            let idx = t.map(|i| i + base_vertex);
+            let p = idx.map(|i| s.positions[i as usize]);
+            if !p.iter().all(|q| q.abs().max_element() <= MAX_COORDINATE) {
+                // NaN and infinities fail the comparison too
+                out_of_range += 1;
+                continue;
+            }
+            let Some(n) = triangle_normal(p[0], p[1], p[2]) else {
+                degenerate += 1;
+                if s.materials[(base_material + mat) as usize]
+                    .emission
+                    .max_element()
+                    > 0.0
+                {
+                    lost_emitters += 1;
+                }
+                continue;
+            };
+            s.indices.push(idx);
+            s.normals.push(n);
+            s.needle.push(needle_factor(p));
+            s.tri_material.push(base_material + mat);
+            if keep_uv {
+                s.tri_uv
+                    .push(mesh.uvs.get(k).copied().unwrap_or([Vec2::ZERO; 3]));
+            }
+            if keep_normals {
+                // a corner whose normal faces away from the triangle's front
+                // is flipped, so each interpolated normal is on the front
+                // side at that corner
+                let ns = mesh.normals.get(k).copied().unwrap_or([Vec3::ZERO; 3]);
+                s.tri_shading_normals
+                    .push(ns.map(|c| if c.dot(n) < 0.0 { -c } else { c }));
+            }
+        }
+        let at = crate::error::Location {
+            file: s.source.clone(),
+            line,
+        };
+        let name = crate::error::one_line(&mesh.name);
+        if out_of_range > 0 {
+            s.warnings.push(format!(
+                "{at}: mesh `{name}`: dropped {out_of_range} triangles with coordinates beyond {MAX_COORDINATE:e} or non-finite after transform"
+            ));
+        }
+        if degenerate > 0 {
+            s.notes.push(format!(
+                "{at}: mesh `{name}`: dropped {degenerate} degenerate (zero-area) triangles"
+            ));
+        }
+        if lost_emitters > 0 {
+            s.warnings.push(format!(
+                "{at}: mesh `{name}`: {lost_emitters} emitting triangles have zero area in f32 after the transform (too small for their distance from the camera?), so the light they made is gone"
+            ));
+        }
+        let end = s.indices.len() as u32;
+        s.meshes.push(MeshRange {
+            name: mesh.name,
+            start,
+            end,
+        });
+    }
+
+    /// Add an analytic sphere (world centre, radius) with its own material,
+    /// which the scene file describes at `line`. A textured material is
+    /// fine: spheres have their own texture coordinates.
+    pub fn add_sphere(
+        &mut self,
+        center: DVec3,
+        radius: f32,
+        material: Material,
+        line: Option<usize>,
+    ) -> Result<()> {
+        let s = &mut self.scene;
+        if self.spheres.len() as u64 >= self.max_triangles {
+            return Err(Error::input(
+                &s.source,
+                line,
+                format!("more than {} spheres", self.max_triangles),
+            ));
+        }
+        self.spheres
+            .push((center, radius, s.materials.len() as u32));
+        s.materials.push(material);
+        Ok(())
+    }
+
+    /// Add a point light at world `position` (its own position is replaced
+    /// by the rebased one).
+    pub fn add_point_light(&mut self, position: DVec3, light: PointLight) {
+        self.point_lights.push((position, light));
+    }
+
+    /// Set the camera, in world space. Without one the scene is framed from
+    /// its bounds, with a note.
+    pub fn set_camera(&mut self, camera: WorldCamera) {
+        self.camera = Some(camera);
+    }
+
+    /// The camera set so far.
+    pub fn camera(&self) -> Option<&WorldCamera> {
+        self.camera.as_ref()
+    }
+
+    /// Triangles placed so far.
+    pub fn triangle_count(&self) -> u64 {
+        self.counts.0
+    }
+
+    /// Vertices placed so far.
+    pub fn vertex_count(&self) -> u64 {
+        self.counts.1
+    }
+
+    /// World bounds of the vertices of placed triangles (those finite and
+    /// within [`MAX_COORDINATE`]) and of the spheres: `(min, max)`, with
+    /// `min > max` when there are none.
+    pub fn world_bounds(&self) -> (DVec3, DVec3) {
+        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        let mut add = |p: DVec3| {
+            if p.is_finite() && p.abs().max_element() <= MAX_COORDINATE as f64 {
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        };
+        for placed in &self.placed {
+            let m = &placed.mesh;
+            for t in &m.indices {
+                for &i in t {
+                    add(m.positions[i as usize]);
+                }
+            }
+        }
+        for &(c, r, _) in &self.spheres {
+            add(c - r as f64);
+            add(c + r as f64);
+        }
+        (lo, hi)
+    }
+
+    /// Mutable access to the scene being built (film, defaults, lens,
+    /// lights without a position).
+    pub fn scene_mut(&mut self) -> &mut Scene {
+        &mut self.scene
+    }
+
+    /// Finish: frame the scene if no camera was set, rebase everything to
+    /// [`render_origin`] and convert it to f32. A scene in which nothing
+    /// emits (no emitting triangle or sphere, no point, directional or
+    /// environment light) renders black: it gets a warning saying so.
+    pub fn build(mut self) -> Scene {
+        let camera = match self.camera {
+            Some(c) => c,
+            None => {
+                let (lo, hi) = self.world_bounds();
+                self.scene
+                    .notes
+                    .push("no camera: framed automatically from the scene bounds".to_string());
+                WorldCamera::framing(lo, hi)
+            }
+        };
+        let origin = render_origin(&camera);
+        self.scene.world_origin = origin;
+        self.scene.camera = CameraDesc {
+            origin: (camera.origin - origin).as_vec3(),
+            target: (camera.target - origin).as_vec3(),
+            up: camera.up,
+            fov_y: camera.fov_y,
+        };
+        if let Some(f) = self.scene.focal_pixels {
+            self.scene.set_focal_pixels(f);
+        }
+        for placed in std::mem::take(&mut self.placed) {
+            self.rebase(placed, origin);
+        }
+        for (c, radius, m) in std::mem::take(&mut self.spheres) {
+            self.scene.spheres.push(Sphere {
+                center: (c - origin).as_vec3(),
+                radius,
+            });
+            self.scene.sphere_material.push(m);
+        }
+        for (p, mut light) in std::mem::take(&mut self.point_lights) {
+            light.position = (p - origin).as_vec3();
+            self.scene.point_lights.push(light);
+        }
+        let s = &self.scene;
+        let emits = |m: u32| s.materials[m as usize].emission.max_element() > 0.0;
+        let lit = s.tri_material.iter().any(|&m| emits(m))
+            || s.sphere_material.iter().any(|&m| emits(m))
+            || s.point_lights
+                .iter()
+                .any(|l| l.intensity.max_element() > 0.0)
+            || s.directional_lights
+                .iter()
+                .any(|l| l.irradiance().max_element() > 0.0)
+            || s.environment.is_some_and(|e| e.max_element() > 0.0)
+            || s.environment_map.is_some();
+        if !lit && self.light_if_dark {
+            self.scene.environment = Some(Vec3::ONE);
+            self.scene.notes.push(
+                "nothing emits light: lighting the scene with a uniform white environment"
+                    .to_string(),
+            );
+        } else if !lit {
+            let file = crate::error::one_line(&s.source.display().to_string()).into_owned();
+            self.scene.warnings.push(format!(
+                "{file}: nothing emits light (no emitting surface, point, directional or environment light): the image will be black"
+            ));
+        }
+        self.scene
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn triangle(name: &str) -> MeshData {
+        MeshData {
+            name: name.to_string(),
+            positions: vec![DVec3::ZERO, DVec3::X, DVec3::Y],
+            indices: vec![[0, 1, 2]],
+            tri_material: vec![0],
+            materials: vec![Material::default()],
+            ..MeshData::default()
+        }
+    }
+
+    #[test]
+    fn a_mesh_listed_past_the_triangle_limit_is_refused_at_its_line() {
+        let mut b = SceneBuilder::new(Path::new("s.toml"));
+        b.max_triangles = 3;
+        for line in 1..=3 {
+            b.add_mesh_from(triangle("t.obj"), &Transform::default(), Some(line))
+                .unwrap();
+        }
+        let e = b
+            .add_mesh_from(triangle("t.obj"), &Transform::default(), Some(4))
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "s.toml:4: mesh `t.obj` (1 triangles) would take the scene to 4 triangles (at most 3)"
+        );
+        assert_eq!(b.triangle_count(), 3, "nothing added on refusal");
+        assert_eq!(b.build().meshes.len(), 3);
+    }
+
+    #[test]
+    fn inconsistent_meshes_are_refused_not_indexed() {
+        let mut bad_index = triangle("a");
+        bad_index.indices[0][2] = 3;
+        let mut bad_material = triangle("b");
+        bad_material.tri_material[0] = 1;
+        let mut short_materials = triangle("c");
+        short_materials.tri_material.clear();
+        for mesh in [bad_index, bad_material, short_materials] {
+            let mut b = SceneBuilder::new(Path::new("s.toml"));
+            let name = mesh.name.clone();
+            let e = b.add_mesh_from(mesh, &Transform::default(), Some(2));
+            let e = e.unwrap_err().to_string();
+            assert!(e.starts_with(&format!("s.toml:2: mesh `{name}`")), "{e}");
+            assert_eq!(b.triangle_count(), 0);
+        }
+    }
+
+    #[test]
+    fn out_of_range_and_degenerate_triangles_are_reported_apart() {
+        let mut b = SceneBuilder::new(Path::new("s.toml"));
+        let mut mesh = triangle("m");
+        // a degenerate triangle (repeated corner) next to the good one
+        mesh.indices.push([0, 1, 1]);
+        mesh.tri_material.push(0);
+        b.add_mesh(mesh, &Transform::default());
+        // corners at exactly MAX_COORDINATE are inside the range
+        let far = Transform {
+            scale: DVec3::splat(MAX_COORDINATE as f64),
+            ..Transform::default()
+        };
+        b.add_mesh(triangle("edge"), &far);
+        let beyond = Transform {
+            translate: DVec3::new(0.0, -2.0 * MAX_COORDINATE as f64, 0.0),
+            ..Transform::default()
+        };
+        b.add_mesh(triangle("beyond"), &beyond);
+        b.set_camera(WorldCamera {
+            origin: DVec3::new(0.0, 0.0, 5.0),
+            target: DVec3::ZERO,
+            up: Vec3::Y,
+            fov_y: 40.0,
+        });
+        let s = b.build();
+        assert_eq!(s.triangle_count(), 2);
+        assert_eq!(
+            s.warnings,
+            [
+                "s.toml: mesh `beyond`: dropped 1 triangles with coordinates beyond 1.8e18 or non-finite after transform",
+                // nothing in this test scene emits
+                "s.toml: nothing emits light (no emitting surface, point, directional or environment light): the image will be black"
+            ]
+        );
+        assert_eq!(
+            s.notes,
+            ["s.toml: mesh `m`: dropped 1 degenerate (zero-area) triangles"]
+        );
+    }
+
+    fn camera_at(origin: DVec3, target: DVec3) -> WorldCamera {
+        WorldCamera {
+            origin,
+            target,
+            up: Vec3::Y,
+            fov_y: 40.0,
+        }
+    }
+
+    #[test]
+    fn scenes_are_rebased_only_when_the_camera_is_far_from_the_origin() {
+        // the Cornell box's own camera: nothing moves
+        let near = camera_at(DVec3::new(0.0, 1.0, 3.9), DVec3::new(0.0, 1.0, 0.0));
+        assert_eq!(render_origin(&near), DVec3::ZERO);
+        // the same view at scale 1e-3, 1e4 away: rebased to the camera's
+        // position on a power-of-two grid about 8 times the view distance
+        let o = DVec3::splat(1e4);
+        let far = camera_at(o + 1e-3 * near.origin, o + 1e-3 * near.target);
+        let r = render_origin(&far);
+        let step = 1.0 / 32.0;
+        assert!((r - far.origin).abs().max_element() <= step / 2.0, "{r}");
+        assert_eq!(r % step, DVec3::ZERO, "{r} is on the grid");
+        // a degenerate view keeps the world as it is
+        assert_eq!(render_origin(&camera_at(o, o)), DVec3::ZERO);
+        // a unit view distance a rounding error either side of 1 (a Mitsuba
+        // `to_world` camera) gives the same grid
+        for l in [1.0 - 1e-7, 1.0, 1.0 + 1e-7] {
+            let c = camera_at(DVec3::new(0.0, 2.2, 5.0), DVec3::new(0.0, 2.2, 5.0 - l));
+            assert_eq!(render_origin(&c), DVec3::new(0.0, 0.0, 8.0), "{l}");
+        }
+    }
+
+    #[test]
+    fn a_rebased_scene_keeps_its_precision_and_its_shape() {
+        let o = DVec3::new(1e6, -1e6, 1e6);
+        let mut b = SceneBuilder::new(Path::new("s.toml"));
+        let mut mesh = triangle("t");
+        let s = 1e-4;
+        mesh.positions = vec![o, o + DVec3::new(s, 0.0, 0.0), o + DVec3::new(0.0, s, 0.0)];
+        b.add_mesh(mesh, &Transform::default());
+        b.add_point_light(
+            o + DVec3::new(0.0, 0.0, s),
+            PointLight::new(Vec3::ZERO, Vec3::ONE),
+        );
+        b.set_camera(camera_at(o + DVec3::new(0.0, 0.0, 4.0 * s), o));
+        let scene = b.build();
+        // in f32 at 1e6 the triangle would have collapsed (ulp 0.0625)
+        assert_eq!(scene.triangle_count(), 1, "{:?}", scene.notes);
+        let [p0, p1, p2] = scene.triangle(0);
+        let back = |p: Vec3| p.as_dvec3() + scene.world_origin;
+        for (p, want) in [(p0, o), (p1, o + DVec3::X * s), (p2, o + DVec3::Y * s)] {
+            assert!((back(p) - want).length() < 1e-6 * s, "{p} -> {}", back(p));
+        }
+        let light = scene.point_lights[0].position;
+        assert!((back(light) - (o + DVec3::Z * s)).length() < 1e-6 * s);
+        let cam = scene.camera.origin;
+        assert!((back(cam) - (o + DVec3::Z * 4.0 * s)).length() < 1e-6 * s);
+    }
+
+    #[test]
+    fn a_flat_mesh_is_framed_face_on() {
+        let floor = WorldCamera::framing(DVec3::new(-1.0, 0.0, -1.0), DVec3::new(1.0, 0.0, 1.0));
+        assert_eq!(floor.target, DVec3::ZERO);
+        assert!(floor.origin.y > 0.0 && floor.origin.x == 0.0 && floor.origin.z == 0.0);
+        let wall = WorldCamera::framing(DVec3::new(0.0, -1.0, -1.0), DVec3::new(0.0, 1.0, 1.0));
+        assert!(wall.origin.x > 0.0 && wall.origin.y == 0.0);
+        let boxy = WorldCamera::framing(-DVec3::ONE, DVec3::ONE);
+        assert!(boxy.origin.z > 0.0 && boxy.origin.x == 0.0 && boxy.origin.y == 0.0);
+    }
+}
