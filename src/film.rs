@@ -16,14 +16,6 @@
 
 use crate::math::Vec3;
 
-// Transitional aliases while callers move to `crate::image` (issue 22): the
-// image files left this module; these go once no caller names them here.
-#[doc(hidden)]
-pub use crate::image::{
-    ImageFormat, OutputOptions, check_output_path, read_exr, read_exr_metadata, read_pfm, srgb8,
-    write_file_atomically, write_image, write_png_rgb8, write_rgb,
-};
-
 // ---------------------------------------------------------------------------
 // Accumulators
 // ---------------------------------------------------------------------------

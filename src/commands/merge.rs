@@ -4,7 +4,7 @@
 use super::{check_exr, write_json, write_variance};
 use crate::error::Result;
 use crate::farm;
-use crate::film::{self, OutputOptions};
+use crate::image::{self, OutputOptions};
 use crate::outputs::{self, Inputs};
 use clap::Args;
 use std::path::PathBuf;
@@ -53,7 +53,7 @@ pub fn run(args: MergeArgs) -> Result<()> {
     if args.accumulation {
         check_exr(&args.output, "--accumulation")?;
     } else {
-        film::check_output_path(&args.output)?;
+        image::check_output_path(&args.output)?;
     }
     if let Some(v) = &args.variance {
         check_exr(v, "--variance")?;
@@ -73,7 +73,7 @@ pub fn run(args: MergeArgs) -> Result<()> {
                 .filter(|(n, _)| n != "embertrace.kind")
                 .collect(),
         };
-        film::write_image(&args.output, &merged, &options)?;
+        image::write_image(&args.output, &merged, &options)?;
     }
     if let Some(v) = &args.variance {
         write_variance(v, &merged)?;

@@ -15,7 +15,8 @@ pub mod study;
 use crate::accel::AccelOptions;
 use crate::accel::bvh::BvhQuality;
 use crate::error::{Error, Result};
-use crate::film::{self, OutputOptions};
+use crate::film;
+use crate::image::{self, OutputOptions};
 use clap::Args;
 
 /// How backends are built (shared by every command).
@@ -51,13 +52,13 @@ impl BuildArgs {
 pub(crate) fn write_json(path: &std::path::Path, value: &impl serde::Serialize) -> Result<()> {
     let text =
         serde_json::to_string_pretty(value).expect("plain numbers and strings serialise") + "\n";
-    film::write_file_atomically(path, text.as_bytes())
+    image::write_file_atomically(path, text.as_bytes())
 }
 
 /// Fail unless `path` names an `.exr` file that can be written.
 pub(crate) fn check_exr(path: &std::path::Path, what: &str) -> Result<()> {
-    film::check_output_path(path)?;
-    if film::ImageFormat::from_path(path)? != film::ImageFormat::Exr {
+    image::check_output_path(path)?;
+    if image::ImageFormat::from_path(path)? != image::ImageFormat::Exr {
         return Err(Error::Settings(format!(
             "{}: {what}: expected an .exr file",
             path.display()
@@ -73,5 +74,5 @@ pub(crate) fn write_variance(path: &std::path::Path, f: &film::Film) -> Result<(
         .iter()
         .map(|p| p.variance_of_mean_f64())
         .collect();
-    film::write_rgb(path, f.width(), f.height(), &v, &OutputOptions::default())
+    image::write_rgb(path, f.width(), f.height(), &v, &OutputOptions::default())
 }

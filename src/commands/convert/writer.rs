@@ -26,7 +26,7 @@
 
 use crate::bsdf::{Bsdf, Distribution, Lobe};
 use crate::error::{Error, Result};
-use crate::film::{self, OutputOptions};
+use crate::image::{self, OutputOptions};
 use crate::math::Vec3;
 use crate::scene::{Material, Scene};
 use crate::settings::{DirectStrategy, Roulette};
@@ -70,7 +70,7 @@ fn write_texture(path: &Path, tex: &ImageTexture) -> Result<()> {
             rgb.push(tex.texel(x, y).to_array().map(f64::from));
         }
     }
-    film::write_rgb(
+    image::write_rgb(
         path,
         tex.width(),
         tex.height(),
@@ -214,7 +214,7 @@ impl Writer<'_> {
             let _ = writeln!(text, "f {} {} {}", corner(0), corner(1), corner(2));
         }
         let path = self.file(&name);
-        film::write_file_atomically(&path, text.as_bytes())?;
+        image::write_file_atomically(&path, text.as_bytes())?;
         Ok(name)
     }
 }
@@ -399,7 +399,7 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
         );
     }
     w.written.files.push(out.to_path_buf());
-    film::write_file_atomically(out, t.as_bytes())?;
+    image::write_file_atomically(out, t.as_bytes())?;
     Ok(w.written)
 }
 

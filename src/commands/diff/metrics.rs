@@ -21,7 +21,7 @@
 //! (by default the largest per-pixel error) is white.
 
 use crate::error::{Error, Result};
-use crate::film::{read_exr, read_pfm, write_png_rgb8};
+use crate::image::{read_exr, read_pfm, write_png_rgb8};
 use serde::Serialize;
 use std::path::Path;
 

@@ -6,7 +6,7 @@ pub use metrics::{Image, compare, ramp};
 
 use super::write_json;
 use crate::error::{Error, Result};
-use crate::film::{self};
+use crate::image;
 use crate::outputs::{self, Inputs};
 use clap::Args;
 use std::path::PathBuf;
@@ -47,7 +47,7 @@ pub fn run(args: DiffArgs) -> Result<()> {
         crate::commands::render::report::check_report_path(j)?;
     }
     if let Some(p) = &args.error_image {
-        film::check_output_path(p)?;
+        image::check_output_path(p)?;
     }
     if let Some(s) = args.error_scale {
         if !(s > 0.0 && s.is_finite()) {

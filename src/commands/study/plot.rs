@@ -4,7 +4,7 @@
 //! and a labelled grid of images. No font files, no system libraries.
 
 use crate::error::Result;
-use crate::film::write_png_rgb8;
+use crate::image::write_png_rgb8;
 use font8x8::UnicodeFonts;
 use std::path::Path;
 

@@ -22,7 +22,8 @@ use super::plot::{Series, contact_sheet, log_log_plot};
 use crate::accel::{self, AccelOptions, Accelerator, Backend};
 use crate::commands::diff::{Image, compare};
 use crate::error::{Error, Result};
-use crate::film::{self, Film, OutputOptions, write_file_atomically};
+use crate::film::Film;
+use crate::image::{self, OutputOptions, write_file_atomically};
 use crate::integrator::PathTracer;
 use crate::progressive::{Budget, render_progressive};
 use crate::render::RenderSettings;
@@ -328,7 +329,7 @@ fn thumbnail(film: &Film, max_side: u32) -> (Vec<u8>, u32, u32) {
                     (0..3).for_each(|c| sum[c] += m[c]);
                 }
             }
-            out.extend(sum.map(|v| film::srgb8(v / (k * k) as f64)));
+            out.extend(sum.map(|v| image::srgb8(v / (k * k) as f64)));
         }
     }
     (out, tw, th)
@@ -358,7 +359,7 @@ pub fn run(
             base.sampler = SamplerKind::Independent;
             let key = base.reference_key(scene_path, base.spp);
             let cached = path.exists()
-                && film::read_exr_metadata(&path).ok().is_some_and(|m| {
+                && image::read_exr_metadata(&path).ok().is_some_and(|m| {
                     m.iter()
                         .any(|(k, v)| k == "embertrace.study_key" && *v == key)
                 });
@@ -378,7 +379,7 @@ pub fn run(
                         format!("{secs:.3}"),
                     ),
                 ];
-                film::write_image(
+                image::write_image(
                     &path,
                     &film,
                     &OutputOptions {
@@ -412,7 +413,7 @@ pub fn run(
         })?;
         let d = compare(&image_of(&film), &reference, scene_path, &ref_path)?;
         let name = format!("{:02}.exr", k + 1);
-        film::write_image(
+        image::write_image(
             &opts.out.join("renders").join(&name),
             &film,
             &OutputOptions {
