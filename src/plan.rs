@@ -283,7 +283,7 @@ impl Plan {
             "area_light",
             emitters,
             "emissive materials",
-            "emission lookup at hits, area-light sampling, MIS (light/mod.rs)",
+            "emission lookup at hits, area-light sampling, MIS (integrator/lights.rs, light/mod.rs)",
         );
         add(
             "point_light",
@@ -308,7 +308,7 @@ impl Plan {
                 .map(|e| vec![format!("radiance {e}")])
                 .unwrap_or_default(),
             "uniform environment",
-            "radiance on escape, uniform sphere sampling (light/mod.rs)",
+            "radiance on escape, uniform sphere sampling (integrator/lights.rs)",
         );
         add(
             "environment_map",

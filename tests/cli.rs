@@ -168,7 +168,7 @@ fn cases() -> Vec<Case> {
             scene: "m.obj",
             expect: vec!["m.obj:5", "normal index -11"],
         },
-        // resource limits (src/scene/limits.rs): refused before anything is
+        // resource limits (src/limits.rs): refused before anything is
         // allocated for them, at the line that asks
         Case {
             name: "procedural triangle count of 1e12",
