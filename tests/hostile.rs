@@ -143,15 +143,26 @@ fn outputs_onto_the_scenes_inputs_are_refused() {
         cases.push((vec!["-o", "link.png"], vec!["-o link.png", "checker.png"]));
         cases.push((vec!["-o", "hard.png"], vec!["-o hard.png", "checker.png"]));
     }
+    each_refused(dir, cases, "overwrite", &before);
+}
+
+/// Render `s.toml` in `dir` with each case's flags: refused, with `word`
+/// and the case's texts in its one line, and no file in `dir` changed.
+fn each_refused(
+    dir: &Path,
+    cases: Vec<(Vec<&str>, Vec<&str>)>,
+    word: &str,
+    before: &BTreeMap<PathBuf, Vec<u8>>,
+) {
     for (flags, expect) in cases {
         let mut args = vec!["render", "s.toml", "-q"];
         args.extend(&flags);
         let line = refused(&run(dir, &args), &format!("{flags:?}"));
-        assert!(line.contains("overwrite"), "{flags:?}: {line}");
+        assert!(line.contains(word), "{flags:?}: {line}");
         for e in expect {
             assert!(line.contains(e), "{flags:?}: `{line}` lacks `{e}`");
         }
-        assert_eq!(snapshot(dir), before, "{flags:?}: files changed");
+        assert_eq!(&snapshot(dir), before, "{flags:?}: files changed");
     }
 }
 
@@ -163,7 +174,7 @@ fn two_outputs_onto_one_file_are_refused() {
     let dir = tmp.path();
     textured_scene(dir);
     let before = snapshot(dir);
-    for (flags, expect) in [
+    let cases = [
         (
             vec!["-o", "x.png", "--report", "x.png"],
             ["-o x.png", "--report x.png"],
@@ -200,16 +211,9 @@ fn two_outputs_onto_one_file_are_refused() {
             ],
             ["--checkpoint c.exr", "--variance c.exr"],
         ),
-    ] {
-        let mut args = vec!["render", "s.toml", "-q"];
-        args.extend(&flags);
-        let line = refused(&run(dir, &args), &format!("{flags:?}"));
-        assert!(line.contains("same file"), "{flags:?}: {line}");
-        for e in expect {
-            assert!(line.contains(e), "{flags:?}: `{line}` lacks `{e}`");
-        }
-        assert_eq!(snapshot(dir), before, "{flags:?}: files changed");
-    }
+    ];
+    let cases = cases.into_iter().map(|(f, e)| (f, e.to_vec())).collect();
+    each_refused(dir, cases, "same file", &before);
 }
 
 /// `convert` refuses to write its TOML, or a mesh or image beside it, over

@@ -31,10 +31,10 @@ use common::{MeanTest, PixelStats, sidak_z};
 use embertrace::accel::{self, AccelOptions, Backend};
 use embertrace::image::read_exr;
 use embertrace::integrator::PathTracer;
-use embertrace::settings::IntegratorSettings;
 use embertrace::render::{RenderSettings, render};
 use embertrace::sampler::SamplerKind;
 use embertrace::scene::Scene;
+use embertrace::settings::IntegratorSettings;
 use std::path::{Path, PathBuf};
 
 /// Independent passes of our render.

@@ -47,11 +47,11 @@ use embertrace::camera::Camera;
 use embertrace::film::Film;
 use embertrace::image::{self, OutputOptions};
 use embertrace::integrator::PathTracer;
-use embertrace::settings::IntegratorSettings;
 use embertrace::math::Vec3;
 use embertrace::render::{RenderSettings, render};
 use embertrace::sampler::SamplerKind;
 use embertrace::scene::Scene;
+use embertrace::settings::IntegratorSettings;
 use std::path::{Path, PathBuf};
 
 const RES: u32 = 32;
