@@ -277,7 +277,7 @@ impl<'a, 'i> Loader<'a, 'i> {
         let mut integrator = None;
         // Mitsuba's default when no integrator is given is `path` with
         // max_depth -1 (our limit) and rr_depth 5
-        let mut render = super::RenderDefaults {
+        let mut render = crate::settings::RenderDefaults {
             max_depth: crate::limits::MAX_DEPTH,
             ..Default::default()
         };
@@ -337,7 +337,7 @@ impl<'a, 'i> Loader<'a, 'i> {
     fn integrator(
         &mut self,
         node: Node<'a, 'i>,
-        render: &mut super::RenderDefaults,
+        render: &mut crate::settings::RenderDefaults,
     ) -> Result<Option<u32>> {
         let kind = self.need_attr(node, "type")?;
         let mut p = self.params(node)?;
