@@ -1,9 +1,9 @@
 //! `embertrace bench`: build time, memory and ray throughput of each
 //! backend ([`throughput`]), the cost of each effect (`--effects`,
-//! [`effects`]) and the renderer's efficiency (`--efficiency`,
+//! [`effect_costs`]) and the renderer's efficiency (`--efficiency`,
 //! [`efficiency`]).
 
-pub mod effects;
+pub mod effect_costs;
 pub mod efficiency;
 pub mod throughput;
 
@@ -99,7 +99,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         .unwrap_or_else(Backend::default_backend);
     let integrator = resolved.integrator;
     if args.efficiency {
-        let settings = crate::commands::bench::efficiency::EfficiencySettings {
+        let settings = efficiency::EfficiencySettings {
             backend,
             resolution: resolved.resolution,
             spp: resolved.spp,
@@ -107,10 +107,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             reps: args.reps,
             options: args.build.options(),
         };
-        let report =
-            crate::commands::bench::efficiency::run(&scene, &settings, integrator, &|line| {
-                eprintln!("{line}")
-            })?;
+        let report = efficiency::run(&scene, &settings, integrator, &|line| eprintln!("{line}"))?;
         print!("{}", report.table());
         if let Some(j) = &args.json {
             write_json(j, &report)?;
@@ -118,7 +115,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         return Ok(());
     }
     if args.effects {
-        let settings = crate::commands::bench::effects::EffectCostSettings {
+        let settings = effect_costs::EffectCostSettings {
             backend,
             resolution: resolved.resolution,
             spp: resolved.spp,
@@ -126,10 +123,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             threads: resolved.threads,
             options: args.build.options(),
         };
-        let report =
-            crate::commands::bench::effects::run(&scene, &settings, integrator, &|line| {
-                eprintln!("{line}")
-            })?;
+        let report = effect_costs::run(&scene, &settings, integrator, &|line| eprintln!("{line}"))?;
         print!("{}", report.table());
         if let Some(j) = &args.json {
             write_json(j, &report)?;
