@@ -422,11 +422,6 @@ impl SceneBuilder {
         self.camera = Some(camera);
     }
 
-    /// The camera set so far.
-    pub fn camera(&self) -> Option<&WorldCamera> {
-        self.camera.as_ref()
-    }
-
     /// Triangles placed so far.
     pub fn triangle_count(&self) -> u64 {
         self.counts.0
