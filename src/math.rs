@@ -341,6 +341,12 @@ pub fn luminance(c: Vec3) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
+/// [`luminance`] in `f64`: finite for any finite colour (light powers,
+/// which can overflow `f32`).
+pub fn luminance_f64(c: Vec3) -> f64 {
+    0.2126 * c.x as f64 + 0.7152 * c.y as f64 + 0.0722 * c.z as f64
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

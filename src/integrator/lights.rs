@@ -9,13 +9,14 @@
 
 use crate::light::{
     AreaLight, DirectionalLight, Emitter, EnvironmentMap, LightSample, PointLight, Quad,
-    luminance_f64, sphere_cone,
+    sphere_cone,
 };
-use crate::math::{SurfacePoint, Vec2, Vec3, spawn_ray, spawn_ray_to};
+use crate::math::{SurfacePoint, Vec2, Vec3, luminance_f64, spawn_ray, spawn_ray_to};
 use crate::sampling::{
     Discrete, square_to_uniform_sphere, square_to_uniform_sphere_pdf, square_to_uniform_triangle,
 };
 use crate::scene::Scene;
+use std::f64::consts::PI as PI_F64;
 
 /// All lights of a scene with the power-proportional selection distribution.
 ///
@@ -34,8 +35,6 @@ pub struct Lights {
 }
 
 const NO_LIGHT: u32 = u32::MAX;
-
-const PI_F64: f64 = std::f64::consts::PI;
 
 /// The selection table's `f32` weights for light powers computed in `f64`:
 /// each divided by the largest, so none overflows, and a positive power too

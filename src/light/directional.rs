@@ -64,7 +64,7 @@ impl DirectionalLight {
     /// `scene_radius`: luminance of `E pi r^2`, in `f64`.
     pub fn power(&self, scene_radius: f32) -> f64 {
         let r = scene_radius as f64;
-        std::f64::consts::PI * r * r * super::luminance_f64(self.irradiance).max(0.0)
+        std::f64::consts::PI * r * r * crate::math::luminance_f64(self.irradiance).max(0.0)
     }
 }
 

@@ -236,12 +236,6 @@ pub struct DeltaLightSample {
     pub shadow: Ray,
 }
 
-/// Luminance (Rec. 709 weights, as [`crate::math::luminance`]) in `f64`: finite for any
-/// finite colour.
-pub(crate) fn luminance_f64(c: Vec3) -> f64 {
-    0.2126 * c.x as f64 + 0.7152 * c.y as f64 + 0.0722 * c.z as f64
-}
-
 /// The cone of directions a sphere subtends from a point outside it
 /// (pbrt-v4 section 6.2.4, "Sampling"), sampled uniformly.
 pub(crate) struct SphereCone {

@@ -82,7 +82,7 @@ impl PointLight {
     /// Power for light selection: luminance of `4 pi I`, in `f64` (in
     /// `f32` it overflows from I = 2.7e37 W/sr).
     pub fn power(&self) -> f64 {
-        4.0 * std::f64::consts::PI * super::luminance_f64(self.intensity).max(0.0)
+        4.0 * std::f64::consts::PI * crate::math::luminance_f64(self.intensity).max(0.0)
     }
 }
 
