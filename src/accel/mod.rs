@@ -17,6 +17,7 @@
 //! `embree4` feature).
 
 pub mod bvh;
+pub mod instance;
 pub mod naive;
 pub mod sphere;
 pub mod triangle;
@@ -30,6 +31,7 @@ pub mod embree;
 use crate::error::Result;
 use crate::math::{Ray, Vec3};
 use crate::shape::Sphere;
+pub use instance::{Instances, Placement, Prototype};
 use std::fmt;
 use std::str::FromStr;
 
@@ -92,9 +94,11 @@ pub enum Coherence {
 }
 
 /// The primitives every backend receives: triangles (a shared vertex buffer
-/// and one index triple per triangle) and analytic spheres. Primitive ids
-/// number the triangles `0..indices.len()` first, then the spheres, so sphere
-/// `i` is primitive `indices.len() + i`.
+/// and one index triple per triangle), analytic spheres, and instances of
+/// prototype meshes. Primitive ids number the triangles `0..indices.len()`
+/// first, then the spheres, so sphere `i` is primitive `indices.len() + i`,
+/// then the instanced triangles, placement by placement (each
+/// [`Placement::first_prim`](instance::Placement::first_prim) on).
 #[derive(Debug, Clone, Copy)]
 pub struct TriangleSoup<'a> {
     /// Vertex positions.
@@ -103,6 +107,8 @@ pub struct TriangleSoup<'a> {
     pub indices: &'a [[u32; 3]],
     /// Analytic spheres.
     pub spheres: &'a [Sphere],
+    /// Prototype meshes and their placements.
+    pub instances: Instances<'a>,
 }
 
 impl<'a> TriangleSoup<'a> {
@@ -112,12 +118,13 @@ impl<'a> TriangleSoup<'a> {
             positions,
             indices,
             spheres: &[],
+            instances: Instances::default(),
         }
     }
 
-    /// Number of primitives (triangles and spheres).
-    pub fn primitive_count(&self) -> usize {
-        self.indices.len() + self.spheres.len()
+    /// Number of primitives (triangles, spheres and instanced triangles).
+    pub fn primitive_count(&self) -> u64 {
+        (self.indices.len() + self.spheres.len()) as u64 + self.instances.triangle_count()
     }
 }
 

@@ -3,6 +3,7 @@
 //! order, exactly as the BVH runs it in its leaves. Quadratic and slow; it is
 //! the oracle the other backends are checked against.
 
+use super::instance::InstanceSet;
 use super::sphere::SphereSet;
 use super::triangle::{Tri4, WatertightRay};
 use super::{Accelerator, Hit, TriangleSoup};
@@ -10,12 +11,14 @@ use crate::math::{Ray, Vec3};
 
 /// Brute force over a copy of the triangles, in blocks of four, then over
 /// the spheres (which a small tree holds: it answers exactly as a scan, see
-/// [`SphereSet`]'s tests).
+/// [`SphereSet`]'s tests), then over every placement of every instanced
+/// prototype, in order, each prototype brute-forced in object space.
 pub struct Naive {
     blocks: Vec<Tri4>,
     /// Triangles in the last block (1 to 4).
     last: usize,
     spheres: SphereSet,
+    instances: InstanceSet<Naive>,
 }
 
 impl Naive {
@@ -29,10 +32,20 @@ impl Naive {
             .collect();
         let blocks = tris.chunks(4).map(Tri4::new).collect();
         let last = tris.len().saturating_sub(1) % 4 + 1;
+        let instances = InstanceSet::new(soup.instances, false, |p| {
+            Ok::<_, std::convert::Infallible>(Naive::new(TriangleSoup::triangles(
+                &p.positions,
+                &p.indices,
+            )))
+        });
         Naive {
             blocks,
             last,
             spheres: SphereSet::new(soup.spheres, soup.indices.len() as u32),
+            instances: match instances {
+                Ok(set) => set,
+                Err(never) => match never {},
+            },
         }
     }
 
@@ -52,7 +65,9 @@ impl Accelerator for Naive {
     }
 
     fn memory_bytes(&self) -> usize {
-        self.blocks.capacity() * std::mem::size_of::<Tri4>() + self.spheres.memory_bytes()
+        self.blocks.capacity() * std::mem::size_of::<Tri4>()
+            + self.spheres.memory_bytes()
+            + self.instances.memory_bytes()
     }
 
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
@@ -66,7 +81,8 @@ impl Accelerator for Naive {
             wr.intersect4(block, lanes, t_max)
                 .fold_closest(block, &mut best, &mut t_max);
         }
-        with_spheres(&self.spheres, ray, best)
+        let best = with_spheres(&self.spheres, ray, best);
+        self.instances.closest(ray, best)
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
@@ -77,6 +93,7 @@ impl Accelerator for Naive {
         self.blocks()
             .any(|(block, lanes)| wr.intersect4(block, lanes, ray.t_max).mask != 0)
             || self.spheres.any(ray)
+            || self.instances.any(ray)
     }
 }
 

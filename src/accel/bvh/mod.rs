@@ -46,6 +46,7 @@ mod tests;
 pub use build::TreeStats;
 pub use node::{LEAF_MAX, MAX_TRIANGLES};
 
+use super::instance::InstanceSet;
 use super::sphere::SphereSet;
 use super::triangle::Tri4;
 use super::{Accelerator, Hit, TriangleSoup};
@@ -89,6 +90,10 @@ pub struct Bvh {
     /// The analytic spheres, in their own small tree, searched after the
     /// triangles (empty, and skipped at once, in triangle-only scenes).
     spheres: SphereSet,
+    /// The instanced prototypes, each a BVH in its own object space, under
+    /// a tree of their placements' boxes: searched last (empty, and skipped
+    /// at once, without instances).
+    instances: InstanceSet<Bvh>,
 }
 
 impl Bvh {
@@ -128,6 +133,9 @@ impl Bvh {
             return Err(too_many());
         }
         let spheres = SphereSet::new(soup.spheres, soup.indices.len() as u32);
+        let instances = InstanceSet::new(soup.instances, true, |p| {
+            Bvh::new(TriangleSoup::triangles(&p.positions, &p.indices), quality)
+        })?;
         if prims.is_empty() {
             return Ok(Bvh {
                 nodes: Vec::new(),
@@ -136,6 +144,7 @@ impl Bvh {
                 bounds: Aabb::EMPTY,
                 stats: TreeStats::default(),
                 spheres,
+                instances,
             });
         }
         let tree = build::build(&mut prims, quality);
@@ -160,6 +169,7 @@ impl Bvh {
             bounds: tree.bounds,
             stats: tree.stats,
             spheres,
+            instances,
         })
     }
 
@@ -178,14 +188,18 @@ impl Accelerator for Bvh {
         self.nodes.capacity() * std::mem::size_of::<Node>()
             + self.blocks.capacity() * std::mem::size_of::<Tri4>()
             + self.spheres.memory_bytes()
+            + self.instances.memory_bytes()
     }
 
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let best = self.closest_hit(ray);
-        super::naive::with_spheres(&self.spheres, ray, best)
+        let best = super::naive::with_spheres(&self.spheres, ray, best);
+        self.instances.closest(ray, best)
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
-        self.any_hit(ray) || (!self.spheres.is_empty() && ray.is_finite() && self.spheres.any(ray))
+        self.any_hit(ray)
+            || (!self.spheres.is_empty() && ray.is_finite() && self.spheres.any(ray))
+            || self.instances.any(ray)
     }
 }

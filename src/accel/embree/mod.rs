@@ -57,16 +57,22 @@ use std::sync::atomic::{AtomicU64, Ordering};
 // `align(16)` from `RTC_ALIGN(16)` in the header. Checked for both bindings.
 const _: () = assert!(align_of::<sys::RTCRayHit>() >= 16 && align_of::<sys::RTCRay>() >= 16);
 
-/// Ray queries answered by Intel Embree over one triangle mesh.
+/// Ray queries answered by Intel Embree over one triangle mesh, the
+/// spheres and the instances.
 ///
 /// Built once from a [`TriangleSoup`] (Embree keeps its own copy of the
-/// vertices and indices), then queried from any number of threads.
+/// vertices and indices, one per prototype), then queried from any number
+/// of threads. Embree transforms a ray into an instance's object space with
+/// its own inverse of the placement's matrix, so its hits on instances may
+/// differ from the pure-Rust backends' by that rounding.
 #[derive(Debug)]
 pub struct EmbreeAccel {
     scene: Scene,
     skipped_nonfinite: AtomicU64,
     /// Triangle count: sphere `i` is primitive `triangles + i`.
     triangles: u32,
+    /// Per placement, the primitive id of its prototype's triangle 0.
+    first_prims: Vec<u32>,
     /// `tnear` of every ray: [`TNEAR_ROBUST`] in robust mode, else 0.
     tnear: f32,
     /// Whether incoherent batches go to Embree as 16-wide packets: only
@@ -126,6 +132,12 @@ impl EmbreeAccel {
             scene,
             skipped_nonfinite: AtomicU64::new(0),
             triangles: soup.indices.len() as u32,
+            first_prims: soup
+                .instances
+                .placements
+                .iter()
+                .map(|p| p.first_prim)
+                .collect(),
             tnear: if options.robust { TNEAR_ROBUST } else { 0.0 },
         })
     }
@@ -230,17 +242,26 @@ impl EmbreeAccel {
         if geom == sys::RTC_INVALID_GEOMETRY_ID {
             return None;
         }
-        let prim = if geom == self.scene.sphere_geometry() {
-            self.triangles + h.hit.primID[i]
-        } else {
-            h.hit.primID[i]
-        };
         Some(Hit {
             t: h.ray.tfar[i],
-            prim,
+            prim: self.primitive(geom, h.hit.primID[i], h.hit.instID[0][i]),
             u: h.hit.u[i],
             v: h.hit.v[i],
         })
+    }
+
+    /// The crate's primitive id for Embree's geometry, primitive and
+    /// (top-level) instance IDs of a hit.
+    #[inline]
+    fn primitive(&self, geom: u32, prim: u32, inst: u32) -> u32 {
+        if inst != sys::RTC_INVALID_GEOMETRY_ID {
+            let k = inst.wrapping_sub(self.scene.instance_geometry()) as usize;
+            self.first_prims[k] + prim
+        } else if geom == self.scene.sphere_geometry() {
+            self.triangles + prim
+        } else {
+            prim
+        }
     }
 }
 
@@ -320,14 +341,9 @@ impl Accelerator for EmbreeAccel {
         if hit.geomID == sys::RTC_INVALID_GEOMETRY_ID {
             return None;
         }
-        let prim = if hit.geomID == self.scene.sphere_geometry() {
-            self.triangles + hit.primID
-        } else {
-            hit.primID
-        };
         Some(Hit {
             t: rayhit.ray.tfar,
-            prim,
+            prim: self.primitive(hit.geomID, hit.primID, hit.instID[0]),
             u: hit.u,
             v: hit.v,
         })

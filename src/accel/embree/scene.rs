@@ -1,16 +1,20 @@
-//! [`Scene`]: a committed Embree scene holding one triangle mesh and one
-//! user geometry of analytic spheres, built from a [`TriangleSoup`].
+//! [`Scene`]: a committed Embree scene holding one triangle mesh, one user
+//! geometry of analytic spheres, and one instance geometry per placement of
+//! a prototype (each prototype a committed child scene of its own, shared by
+//! its placements), built from a [`TriangleSoup`].
 //!
 //! Embree API reference: `rtcNewScene`, `rtcSetSceneFlags`,
 //! `rtcSetSceneBuildQuality`, `rtcNewGeometry`, `rtcSetNewGeometryBuffer`,
 //! `rtcCommitGeometry`, `rtcAttachGeometry`, `rtcReleaseGeometry`,
-//! `rtcCommitScene`, `rtcReleaseScene`, and the `RTC_GEOMETRY_TYPE_TRIANGLE`
-//! page (<https://github.com/RenderKit/embree/blob/v3.13.5/doc/src/api.md>).
+//! `rtcCommitScene`, `rtcReleaseScene`, the `RTC_GEOMETRY_TYPE_TRIANGLE`
+//! and `RTC_GEOMETRY_TYPE_INSTANCE` pages, `rtcSetGeometryInstancedScene`
+//! and `rtcSetGeometryTransform`
+//! (<https://github.com/RenderKit/embree/blob/v3.13.5/doc/src/api.md>).
 
 use super::device::{Device, backend_error};
 use super::sys;
 use super::user::{self, SphereData};
-use crate::accel::{AccelOptions, TriangleSoup};
+use crate::accel::{AccelOptions, Instances, TriangleSoup};
 use crate::error::Result;
 use crate::shape::Sphere;
 use std::ptr::NonNull;
@@ -39,6 +43,12 @@ pub(super) struct Scene {
     /// The sphere geometry's ID, or `RTC_INVALID_GEOMETRY_ID` when there
     /// are no spheres.
     sphere_geom: u32,
+    /// One committed child scene per prototype, released after this scene
+    /// (whose instance geometries name them).
+    prototypes: Vec<NonNull<sys::RTCSceneTy>>,
+    /// The geometry ID of placement 0's instance; placement `k` has
+    /// `instance_geom + k`.
+    instance_geom: u32,
 }
 
 impl Scene {
@@ -62,27 +72,20 @@ impl Scene {
             device,
             spheres: None,
             sphere_geom: sys::RTC_INVALID_GEOMETRY_ID,
+            prototypes: Vec::new(),
+            instance_geom: sys::RTC_INVALID_GEOMETRY_ID,
         };
         scene.device.check("rtcNewScene")?;
-        let flags = if options.robust {
-            sys::RTCSceneFlags::ROBUST
-        } else {
-            sys::RTCSceneFlags::NONE
-        };
-        // SAFETY: `scene.handle` is a live, not yet committed scene that no
-        // other thread can see.
-        unsafe {
-            sys::rtcSetSceneFlags(scene.raw(), flags);
-            sys::rtcSetSceneBuildQuality(scene.raw(), BUILD_QUALITY);
-        }
-        scene
-            .device
-            .check("rtcSetSceneFlags/rtcSetSceneBuildQuality")?;
+        configure(&scene.device, scene.raw(), options)?;
         if !soup.indices.is_empty() {
-            scene.attach_triangles(soup)?;
+            let id = attach_triangles(&scene.device, scene.raw(), soup)?;
+            debug_assert_eq!(id, 0, "the first geometry of a fresh scene gets ID 0");
         }
         if !soup.spheres.is_empty() {
             scene.sphere_geom = scene.attach_spheres(soup.spheres)?;
+        }
+        if !soup.instances.is_empty() {
+            scene.attach_instances(soup.instances, options)?;
         }
         // SAFETY: as above; after this call the scene is never modified again.
         unsafe { sys::rtcCommitScene(scene.raw()) };
@@ -98,6 +101,87 @@ impl Scene {
     /// The geometry ID of the spheres (`RTC_INVALID_GEOMETRY_ID` if none).
     pub(super) fn sphere_geometry(&self) -> u32 {
         self.sphere_geom
+    }
+
+    /// The geometry ID of placement 0's instance (placement `k` has this
+    /// plus `k`; `RTC_INVALID_GEOMETRY_ID` if there are none).
+    pub(super) fn instance_geometry(&self) -> u32 {
+        self.instance_geom
+    }
+
+    /// Build one child scene per prototype and one instance geometry per
+    /// placement (its object-to-render matrix, column-major 3 x 4), attached
+    /// in placement order with consecutive IDs. Only during
+    /// [`Scene::build`], before the commit.
+    fn attach_instances(&mut self, instances: Instances<'_>, options: AccelOptions) -> Result<()> {
+        for p in instances.prototypes {
+            let soup = TriangleSoup::triangles(&p.positions, &p.indices);
+            validate(soup)?;
+            // SAFETY: the device is live (we own it).
+            let raw = unsafe { sys::rtcNewScene(self.device.raw()) };
+            self.device.check("rtcNewScene (prototype)")?;
+            let child = NonNull::new(raw)
+                .ok_or_else(|| backend_error("rtcNewScene returned NULL".into()))?;
+            // owned from here: released in `Drop`, also on the error paths
+            self.prototypes.push(child);
+            configure(&self.device, child.as_ptr(), options)?;
+            if !p.indices.is_empty() {
+                attach_triangles(&self.device, child.as_ptr(), soup)?;
+            }
+            // SAFETY: `child` is live and filled; it is never modified after
+            // this commit (instances only read it).
+            unsafe { sys::rtcCommitScene(child.as_ptr()) };
+            self.device.check("rtcCommitScene (prototype)")?;
+        }
+        for (k, placement) in instances.placements.iter().enumerate() {
+            let child = *self
+                .prototypes
+                .get(placement.prototype as usize)
+                .ok_or_else(|| {
+                    backend_error(format!(
+                        "placement {k} names prototype {} of {}",
+                        placement.prototype,
+                        self.prototypes.len()
+                    ))
+                })?;
+            let device = &self.device;
+            // SAFETY: `device` is live; INSTANCE is a valid geometry type.
+            let raw = unsafe { sys::rtcNewGeometry(device.raw(), sys::RTCGeometryType::INSTANCE) };
+            let geometry = NonNull::new(raw).map(|handle| Geometry { handle, device });
+            device.check("rtcNewGeometry (instance)")?;
+            let geometry =
+                geometry.ok_or_else(|| backend_error("rtcNewGeometry returned NULL".into()))?;
+            let matrix: [f32; 12] = placement.to_render.to_cols_array();
+            // SAFETY: `geometry` is a live, uncommitted instance geometry;
+            // `child` is a committed scene of the same device that outlives
+            // it (released after this scene in `Drop`); Embree copies the
+            // 12 floats `matrix` points to (FLOAT3X4_COLUMN_MAJOR: three
+            // axis columns, then the translation) before returning.
+            unsafe {
+                sys::rtcSetGeometryInstancedScene(geometry.raw(), child.as_ptr());
+                sys::rtcSetGeometryTransform(
+                    geometry.raw(),
+                    0,
+                    sys::RTCFormat::FLOAT3X4_COLUMN_MAJOR,
+                    matrix.as_ptr().cast(),
+                );
+                sys::rtcCommitGeometry(geometry.raw());
+            }
+            device.check("rtcCommitGeometry (instance)")?;
+            // SAFETY: both handles are live and of the same device; the
+            // scene keeps its own reference to the geometry.
+            let id = unsafe { sys::rtcAttachGeometry(self.raw(), geometry.raw()) };
+            device.check("rtcAttachGeometry (instance)")?;
+            if k == 0 {
+                self.instance_geom = id;
+            } else if id != self.instance_geom.wrapping_add(k as u32) {
+                return Err(backend_error(format!(
+                    "Embree numbered instance {k} as geometry {id}, not {}",
+                    self.instance_geom.wrapping_add(k as u32)
+                )));
+            }
+        }
+        Ok(())
     }
 
     /// Create the user geometry answering for `spheres` (one primitive per
@@ -151,60 +235,71 @@ impl Scene {
     pub(super) fn raw(&self) -> sys::RTCScene {
         self.handle.as_ptr()
     }
+}
 
-    /// Create a triangle geometry holding copies of the soup's buffers,
-    /// commit it and attach it as geometry 0 (only during [`Scene::build`],
-    /// before the commit; hence `&mut self`).
-    fn attach_triangles(&mut self, soup: TriangleSoup<'_>) -> Result<()> {
-        let device = &self.device;
-        // SAFETY: `device` is live; TRIANGLE is a valid geometry type.
-        let raw = unsafe { sys::rtcNewGeometry(device.raw(), sys::RTCGeometryType::TRIANGLE) };
-        let geometry = NonNull::new(raw).map(|handle| Geometry { handle, device });
-        device.check("rtcNewGeometry")?;
-        let geometry =
-            geometry.ok_or_else(|| backend_error("rtcNewGeometry returned NULL".into()))?;
-        // SAFETY: `geometry` is live and not yet committed or shared.
-        unsafe { sys::rtcSetGeometryBuildQuality(geometry.raw(), BUILD_QUALITY) };
+/// Create a triangle geometry holding copies of the soup's triangles,
+/// commit it and attach it to `scene` (a live, uncommitted scene of
+/// `device`, during [`Scene::build`]); returns its geometry ID.
+fn attach_triangles(device: &Device, scene: sys::RTCScene, soup: TriangleSoup<'_>) -> Result<u32> {
+    // SAFETY: `device` is live; TRIANGLE is a valid geometry type.
+    let raw = unsafe { sys::rtcNewGeometry(device.raw(), sys::RTCGeometryType::TRIANGLE) };
+    let geometry = NonNull::new(raw).map(|handle| Geometry { handle, device });
+    device.check("rtcNewGeometry")?;
+    let geometry = geometry.ok_or_else(|| backend_error("rtcNewGeometry returned NULL".into()))?;
+    // SAFETY: `geometry` is live and not yet committed or shared.
+    unsafe { sys::rtcSetGeometryBuildQuality(geometry.raw(), BUILD_QUALITY) };
 
-        let vertices = geometry.new_buffer::<[f32; 3]>(
-            sys::RTCBufferType::VERTEX,
-            sys::RTCFormat::FLOAT3,
-            soup.positions.len(),
-        )?;
-        for (i, p) in soup.positions.iter().enumerate() {
-            // SAFETY: `new_buffer` returned room for `positions.len()` aligned
-            // items of `[f32; 3]`, owned by the geometry and touched by nothing
-            // else until commit; `i` is in range. `write` never reads the
-            // (uninitialised) old contents.
-            unsafe { vertices.as_ptr().add(i).write(p.to_array()) };
-        }
-        let indices = geometry.new_buffer::<[u32; 3]>(
-            sys::RTCBufferType::INDEX,
-            sys::RTCFormat::UINT3,
-            soup.indices.len(),
-        )?;
-        // SAFETY: as for the vertices: room for `indices.len()` aligned
-        // `[u32; 3]` items that do not overlap the caller's slice.
-        unsafe {
-            std::ptr::copy_nonoverlapping(
-                soup.indices.as_ptr(),
-                indices.as_ptr(),
-                soup.indices.len(),
-            )
-        };
-
-        // SAFETY: `geometry` is live and its buffers are filled; every index
-        // is below the vertex count (checked by `validate`).
-        unsafe { sys::rtcCommitGeometry(geometry.raw()) };
-        device.check("rtcCommitGeometry")?;
-        // SAFETY: both handles are live and belong to the same device; the
-        // scene retains its own reference to the geometry, so dropping
-        // `geometry` below (rtcReleaseGeometry) leaves it attached.
-        let id = unsafe { sys::rtcAttachGeometry(self.raw(), geometry.raw()) };
-        device.check("rtcAttachGeometry")?;
-        debug_assert_eq!(id, 0, "the only geometry of a fresh scene gets ID 0");
-        Ok(())
+    let vertices = geometry.new_buffer::<[f32; 3]>(
+        sys::RTCBufferType::VERTEX,
+        sys::RTCFormat::FLOAT3,
+        soup.positions.len(),
+    )?;
+    for (i, p) in soup.positions.iter().enumerate() {
+        // SAFETY: `new_buffer` returned room for `positions.len()` aligned
+        // items of `[f32; 3]`, owned by the geometry and touched by nothing
+        // else until commit; `i` is in range. `write` never reads the
+        // (uninitialised) old contents.
+        unsafe { vertices.as_ptr().add(i).write(p.to_array()) };
     }
+    let indices = geometry.new_buffer::<[u32; 3]>(
+        sys::RTCBufferType::INDEX,
+        sys::RTCFormat::UINT3,
+        soup.indices.len(),
+    )?;
+    // SAFETY: as for the vertices: room for `indices.len()` aligned
+    // `[u32; 3]` items that do not overlap the caller's slice.
+    unsafe {
+        std::ptr::copy_nonoverlapping(soup.indices.as_ptr(), indices.as_ptr(), soup.indices.len())
+    };
+
+    // SAFETY: `geometry` is live and its buffers are filled; every index
+    // is below the vertex count (checked by `validate`).
+    unsafe { sys::rtcCommitGeometry(geometry.raw()) };
+    device.check("rtcCommitGeometry")?;
+    // SAFETY: both handles are live and belong to the same device (the
+    // caller's contract); the scene retains its own reference to the
+    // geometry, so dropping `geometry` below (rtcReleaseGeometry) leaves it
+    // attached.
+    let id = unsafe { sys::rtcAttachGeometry(scene, geometry.raw()) };
+    device.check("rtcAttachGeometry")?;
+    Ok(id)
+}
+
+/// Set `scene`'s flags (robust or not) and build quality: `scene` is a live,
+/// not yet committed scene of `device` that no other thread can see.
+fn configure(device: &Device, scene: sys::RTCScene, options: AccelOptions) -> Result<()> {
+    let flags = if options.robust {
+        sys::RTCSceneFlags::ROBUST
+    } else {
+        sys::RTCSceneFlags::NONE
+    };
+    // SAFETY: `scene` is live and uncommitted, and no other thread sees it
+    // (the caller's contract).
+    unsafe {
+        sys::rtcSetSceneFlags(scene, flags);
+        sys::rtcSetSceneBuildQuality(scene, BUILD_QUALITY);
+    }
+    device.check("rtcSetSceneFlags/rtcSetSceneBuildQuality")
 }
 
 impl Drop for Scene {
@@ -212,6 +307,12 @@ impl Drop for Scene {
         // SAFETY: `self.handle` is live and this is its last use; the device
         // it came from is still alive (`self.device` drops after this).
         unsafe { sys::rtcReleaseScene(self.raw()) };
+        for child in &self.prototypes {
+            // SAFETY: each child is live, owned by this scene alone, and
+            // used for the last time: the instances naming it went with the
+            // scene released above. The device is still alive.
+            unsafe { sys::rtcReleaseScene(child.as_ptr()) };
+        }
     }
 }
 
