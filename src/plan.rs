@@ -40,7 +40,8 @@ pub struct Kernel {
     /// Emissive surfaces (area lights); off: a hit is never looked up for
     /// emission and, with no environment either, no MIS weight is computed.
     pub emitters: bool,
-    /// Spheres or smooth normals; off: every hit is a flat-shaded triangle.
+    /// Spheres, smooth normals or instances; off: every hit is a
+    /// flat-shaded triangle of the scene's own arrays.
     pub shapes: bool,
     /// A thin-lens camera; off: camera rays come from the pinhole, with no
     /// lens sample drawn.
@@ -68,7 +69,7 @@ impl Kernel {
             (self.delta, "delta-lobe and delta-light checks"),
             (self.environment, "environment lookups on escape"),
             (self.emitters, "emission lookups at hits"),
-            (self.shapes, "sphere and smooth-normal shading"),
+            (self.shapes, "sphere, smooth-normal and instance shading"),
             (self.lens, "lens sampling"),
         ]
         .iter()
@@ -101,7 +102,7 @@ impl Kernel {
 
 /// The effect names, in the order `plan` lists them. These names are fixed:
 /// scripts read them from `plan --json` and from the render report.
-pub const EFFECTS: [&str; 16] = [
+pub const EFFECTS: [&str; 17] = [
     "diffuse",
     "mirror",
     "glass",
@@ -120,6 +121,7 @@ pub const EFFECTS: [&str; 16] = [
     // appended (not grouped with the materials) so that the positions of
     // the earlier names in `plan --json` stay as they were
     "phong",
+    "instancing",
 ];
 
 /// Which kernel to run (`--plan`).
@@ -186,16 +188,10 @@ impl Plan {
     /// The plan for `scene` rendered with `settings`.
     pub fn new(scene: &Scene, settings: &IntegratorSettings) -> Self {
         // the materials some primitive uses, with what uses them
-        let mut used = vec![false; scene.materials.len()];
-        for &m in scene.tri_material.iter().chain(&scene.sphere_material) {
-            used[m as usize] = true;
-        }
         let used_materials: Vec<_> = scene
-            .materials
-            .iter()
-            .zip(&used)
-            .filter(|(_, u)| **u)
-            .map(|(m, _)| m)
+            .used_materials()
+            .into_iter()
+            .map(|m| &scene.materials[m as usize])
             .collect();
         let of_type = |t: &str| -> Vec<String> {
             let mut v: Vec<String> = used_materials
@@ -219,6 +215,13 @@ impl Plan {
         let smooth = scene
             .tri_shading_normals
             .iter()
+            .chain(
+                scene
+                    .instances
+                    .shading
+                    .iter()
+                    .flat_map(|p| &p.tri_shading_normals),
+            )
             .filter(|c| c.iter().all(|n| *n != crate::math::Vec3::ZERO))
             .count();
         let delta_bsdfs: Vec<String> = used_materials
@@ -369,6 +372,26 @@ impl Plan {
             "phong materials",
             "Lambertian plus a Phong or GGX-Schlick lobe, mixture sampling (bsdf/phong.rs)",
         );
+        let inst = &scene.instances;
+        add(
+            "instancing",
+            if inst.is_empty() {
+                Vec::new()
+            } else {
+                vec![format!(
+                    "{} placements of {} prototypes ({} triangles placed, {} stored)",
+                    inst.placements.len(),
+                    inst.prototypes.len(),
+                    inst.triangle_count(),
+                    inst.prototypes
+                        .iter()
+                        .map(|p| p.indices.len())
+                        .sum::<usize>()
+                )]
+            },
+            "instances",
+            "two-level queries (object-space rays per placement), instance lookup and transform of hit points (scene/instances.rs, accel/instance.rs)",
+        );
         let on = |n: &str| effects.iter().any(|e| e.name == n && e.on);
         let kernel = Kernel {
             materials: [
@@ -384,7 +407,7 @@ impl Plan {
             delta: !delta_bsdfs.is_empty() || on("point_light") || on("directional_light"),
             environment: on("environment") || on("environment_map"),
             emitters: on("area_light"),
-            shapes: on("sphere") || on("smooth_normals"),
+            shapes: on("sphere") || on("smooth_normals") || on("instancing"),
             lens: on("thin_lens"),
         };
         Plan { effects, kernel }

@@ -25,8 +25,13 @@ use std::f64::consts::PI as PI_F64;
 #[derive(Debug, Clone)]
 pub struct Lights {
     area: Vec<AreaLight>,
-    /// For each primitive, its index in `area`, or `u32::MAX`.
+    /// For each placed primitive (triangles and spheres), its index in
+    /// `area`, or `u32::MAX`.
     light_of_prim: Vec<u32>,
+    /// The emitting instanced triangles and their indices in `area`, in
+    /// increasing primitive order (a table per instanced primitive would
+    /// grow with the placements times the mesh).
+    instanced_lights: Vec<(u32, u32)>,
     points: Vec<PointLight>,
     directionals: Vec<DirectionalLight>,
     environment: Option<Vec3>,
@@ -63,11 +68,29 @@ impl Lights {
     /// Collect the lights of `scene`.
     pub fn new(scene: &Scene) -> Self {
         let mut area = Vec::new();
-        let mut light_of_prim = vec![NO_LIGHT; scene.primitive_count()];
+        let placed = scene.triangle_count() + scene.spheres.len();
+        let mut light_of_prim = vec![NO_LIGHT; placed];
+        let mut instanced_lights = Vec::new();
         let mut weights: Vec<f64> = Vec::new();
         let n_tris = scene.triangle_count() as u32;
+        let inst = &scene.instances;
+        // the emitting instanced triangles: every triangle of a placement
+        // with an emitting override, or those of its prototype that emit
+        let emits = |m: u32| scene.materials[m as usize].emission.max_element() > 0.0;
+        let mut instanced = inst.placements.iter().enumerate().flat_map(|(k, p)| {
+            let n = inst.prototypes[p.prototype as usize].indices.len() as u32;
+            (0..n)
+                .filter(move |&t| emits(inst.material_index(k, t)))
+                .map(move |t| p.first_prim + t)
+        });
         let mut prim = 0;
-        while prim < scene.primitive_count() as u32 {
+        loop {
+            if prim as usize >= placed {
+                match instanced.next() {
+                    Some(p) => prim = p,
+                    None => break,
+                }
+            }
             let m = scene.material(prim);
             if m.emission.max_element() <= 0.0 {
                 prim += 1;
@@ -103,7 +126,10 @@ impl Lights {
                 }
             };
             let sides = if m.two_sided { 2.0 } else { 1.0 };
-            light_of_prim[prim as usize] = area.len() as u32;
+            match light_of_prim.get_mut(prim as usize) {
+                Some(l) => *l = area.len() as u32,
+                None => instanced_lights.push((prim, area.len() as u32)),
+            }
             weights.push(luminance_f64(m.emission).max(0.0) * a as f64 * PI_F64 * sides);
             area.push(AreaLight {
                 prim,
@@ -112,11 +138,16 @@ impl Lights {
                 area: a,
                 shape,
             });
-            prim += if matches!(shape, Emitter::Quad(_)) {
-                2
+            if (prim as usize) < placed {
+                prim += if matches!(shape, Emitter::Quad(_)) {
+                    2
+                } else {
+                    1
+                };
             } else {
-                1
-            };
+                // the next instanced emitter comes from the iterator
+                prim = u32::MAX;
+            }
         }
         let b = scene.bounds();
         let r = if b.is_empty() {
@@ -136,6 +167,7 @@ impl Lights {
         Lights {
             area,
             light_of_prim,
+            instanced_lights,
             points: scene.point_lights.clone(),
             directionals: scene.directional_lights.clone(),
             environment: scene.environment,
@@ -322,7 +354,13 @@ impl Lights {
     /// Solid-angle density with which [`Lights::sample`] from `from` would
     /// produce the point `to` on emissive primitive `prim`.
     pub fn pdf_area(&self, from: &SurfacePoint, prim: u32, to: &SurfacePoint) -> f32 {
-        let idx = self.light_of_prim[prim as usize];
+        let idx = match self.light_of_prim.get(prim as usize) {
+            Some(&i) => i,
+            None => match self.instanced_lights.binary_search_by_key(&prim, |e| e.0) {
+                Ok(k) => self.instanced_lights[k].1,
+                Err(_) => NO_LIGHT,
+            },
+        };
         if idx == NO_LIGHT {
             return 0.0;
         }

@@ -539,7 +539,7 @@ impl<'a> PathTracer<'a> {
         let sp = if SHAPES {
             self.scene.hit_point(ray, hit)
         } else {
-            self.scene.surface_point(hit.prim, hit.u, hit.v)
+            self.scene.surface_point_placed(hit.prim, hit.u, hit.v)
         };
         let wo = -ray.d;
         let ng = if sp.n.dot(wo) < 0.0 { -sp.n } else { sp.n };
@@ -590,8 +590,7 @@ impl<'a> PathTracer<'a> {
 
     /// The vertex normals of triangle `prim`, when all three exist.
     fn corner_normals(&self, prim: u32) -> Option<[Vec3; 3]> {
-        let c = self.scene.tri_shading_normals.get(prim as usize)?;
-        (c.iter().all(|n| *n != Vec3::ZERO)).then_some(*c)
+        self.scene.corner_normals(prim)
     }
 
     /// Where rays leaving a smooth-shaded triangle to its front start

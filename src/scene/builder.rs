@@ -5,7 +5,9 @@
 //! limits of [`crate::limits`], and rebases everything to [`render_origin`]
 //! before it becomes f32.
 
+use super::instances::{NO_OVERRIDE, PrototypeShading, SceneInstances};
 use super::{Material, MeshData, MeshRange, Scene, Transform};
+use crate::accel::{Placement, Prototype};
 use crate::camera::{CameraDesc, ThinLens};
 use crate::error::{Error, Result};
 use crate::light::PointLight;
@@ -94,6 +96,26 @@ struct Placed {
     line: Option<usize>,
 }
 
+/// A prototype mesh (object space, f64) waiting for the build.
+#[derive(Debug)]
+struct PrototypeIn {
+    mesh: MeshData,
+    /// Index of its first material in the scene's list.
+    base_material: u32,
+    line: Option<usize>,
+}
+
+/// A placement of a prototype waiting for the render origin.
+#[derive(Debug)]
+struct InstanceIn {
+    prototype: u32,
+    /// Object to world.
+    matrix: DAffine3,
+    /// Material override, or [`NO_OVERRIDE`].
+    material: u32,
+    line: Option<usize>,
+}
+
 /// Accumulates meshes, spheres, point lights and the camera in world space
 /// (f64) and builds a [`Scene`] rebased to [`render_origin`], dropping
 /// triangles no backend should see.
@@ -115,6 +137,12 @@ pub struct SceneBuilder {
     /// Light a scene in which nothing emits with a uniform white
     /// environment, with a note (a bare mesh), instead of warning.
     pub(super) light_if_dark: bool,
+    /// Meshes stored once for instances to place.
+    prototypes: Vec<PrototypeIn>,
+    /// Their placements, in order.
+    instances: Vec<InstanceIn>,
+    /// Triangles the placements add up to (before degenerate ones drop).
+    instanced_triangles: u64,
 }
 
 impl SceneBuilder {
@@ -135,6 +163,7 @@ impl SceneBuilder {
                 tri_shading_normals: Vec::new(),
                 spheres: Vec::new(),
                 sphere_material: Vec::new(),
+                instances: SceneInstances::default(),
                 environment: None,
                 environment_map: None,
                 point_lights: Vec::new(),
@@ -160,6 +189,9 @@ impl SceneBuilder {
             point_lights: Vec::new(),
             camera: None,
             light_if_dark: false,
+            prototypes: Vec::new(),
+            instances: Vec::new(),
+            instanced_triangles: 0,
         }
     }
 
@@ -197,6 +229,16 @@ impl SceneBuilder {
         matrix: DAffine3,
         line: Option<usize>,
     ) -> Result<()> {
+        self.check_mesh(&mesh, line)?;
+        self.place(mesh, matrix, line);
+        Ok(())
+    }
+
+    /// Refuse `mesh` (described at `line`) if it would take the scene past
+    /// [`MAX_TRIANGLES`] or [`MAX_VERTICES`] stored, or if it is
+    /// inconsistent (an index out of range, a texture without texture
+    /// coordinates).
+    fn check_mesh(&self, mesh: &MeshData, line: Option<usize>) -> Result<()> {
         let s = &self.scene;
         let fail = |msg: String| Err(Error::input(&s.source, line, msg));
         let tris = self.counts.0 + mesh.indices.len() as u64;
@@ -243,10 +285,140 @@ impl SceneBuilder {
                 ));
             }
         }
-        self.place(mesh, matrix, line);
         Ok(())
     }
 
+    /// Store `mesh` (described at `line`) once, in its own object space, for
+    /// [`SceneBuilder::add_instance`] to place; it is not placed itself.
+    /// Its triangles count towards the stored-triangle limit once, however
+    /// many instances place it. Returns the prototype's index.
+    pub fn add_prototype(&mut self, mut mesh: MeshData, line: Option<usize>) -> Result<u32> {
+        self.check_mesh(&mesh, line)?;
+        let s = &mut self.scene;
+        s.warnings.append(&mut mesh.warnings);
+        for f in mesh.files.drain(..) {
+            if !s.mesh_files.contains(&f) {
+                s.mesh_files.push(f);
+            }
+        }
+        let base_material = s.materials.len() as u32;
+        s.materials.append(&mut mesh.materials);
+        self.counts.0 += mesh.indices.len() as u64;
+        self.counts.1 += mesh.positions.len() as u64;
+        self.prototypes.push(PrototypeIn {
+            mesh,
+            base_material,
+            line,
+        });
+        Ok(self.prototypes.len() as u32 - 1)
+    }
+
+    /// The name of prototype `p`.
+    pub fn prototype_name(&self, p: u32) -> &str {
+        &self.prototypes[p as usize].mesh.name
+    }
+
+    /// Place prototype `prototype` by the object-to-world map `matrix`
+    /// (composed in f64), with `material` instead of the prototype's own
+    /// when given. The scene file describes it at `line`. A singular or
+    /// non-finite matrix, an unknown prototype, or more instanced triangles
+    /// than 32-bit primitive ids can number is an error naming `line`.
+    pub fn add_instance(
+        &mut self,
+        prototype: u32,
+        matrix: DAffine3,
+        material: Option<Material>,
+        line: Option<usize>,
+    ) -> Result<()> {
+        let fail = |msg: String| Err(Error::input(&self.scene.source, line, msg));
+        let Some(proto) = self.prototypes.get(prototype as usize) else {
+            return fail(format!("instance of unknown prototype {prototype}"));
+        };
+        let det = matrix.matrix3.determinant();
+        if !(det.is_finite() && det != 0.0 && matrix.translation.is_finite()) {
+            return fail(format!(
+                "instance of `{}`: its transform is singular or not finite",
+                crate::error::one_line(&proto.mesh.name)
+            ));
+        }
+        let total = self.instanced_triangles + proto.mesh.indices.len() as u64;
+        let placed = self.counts.0 + self.spheres.len() as u64;
+        if placed + total > u32::MAX as u64 {
+            return fail(format!(
+                "instance of `{}` would take the scene to {} instanced triangles: primitive ids are 32-bit (at most {} in all)",
+                crate::error::one_line(&proto.mesh.name),
+                total,
+                u32::MAX
+            ));
+        }
+        self.instanced_triangles = total;
+        let material = match material {
+            Some(m) => {
+                self.scene.materials.push(m);
+                self.scene.materials.len() as u32 - 1
+            }
+            None => NO_OVERRIDE,
+        };
+        self.instances.push(InstanceIn {
+            prototype,
+            matrix,
+            material,
+            line,
+        });
+        Ok(())
+    }
+
+    /// Move the prototypes and placements into the scene, in render space:
+    /// each prototype centred on its own box (the offset folded into its
+    /// placements, so its f32 object coordinates stay small), degenerate
+    /// triangles dropped in object space, each placement's matrix rebased
+    /// to `origin` in f64 and rounded once. Runs after the placed triangles
+    /// and spheres, whose primitive ids come first.
+    fn build_instances(&mut self, origin: DVec3) {
+        let s = &mut self.scene;
+        let mut out = SceneInstances::default();
+        let mut centres = Vec::new();
+        for p in std::mem::take(&mut self.prototypes) {
+            let (proto, shading, centre, dropped) = object_space(p.mesh, p.base_material);
+            if dropped > 0 {
+                let at = crate::error::Location {
+                    file: s.source.clone(),
+                    line: p.line,
+                };
+                s.notes.push(format!(
+                    "{at}: mesh `{}`: dropped {dropped} degenerate or non-finite triangles",
+                    crate::error::one_line(&shading.name)
+                ));
+            }
+            out.prototypes.push(proto);
+            out.shading.push(shading);
+            centres.push(centre);
+        }
+        let mut first = (s.indices.len() + s.spheres.len()) as u32;
+        for inst in std::mem::take(&mut self.instances) {
+            let k = inst.prototype as usize;
+            let m = DAffine3::from_translation(-origin)
+                * inst.matrix
+                * DAffine3::from_translation(centres[k]);
+            let Some(placement) = Placement::new(inst.prototype, m, first) else {
+                let at = crate::error::Location {
+                    file: s.source.clone(),
+                    line: inst.line,
+                };
+                s.warnings.push(format!(
+                    "{at}: instance of `{}` dropped: its transform does not fit in f32",
+                    crate::error::one_line(&out.shading[k].name)
+                ));
+                continue;
+            };
+            first += out.prototypes[k].indices.len() as u32;
+            out.placements.push(placement);
+            out.material.push(inst.material);
+            out.normal_matrix
+                .push(m.matrix3.inverse().transpose().as_mat3());
+        }
+        s.instances = out;
+    }
     /// Place `mesh` in world space: positions through `m` (f64), normals
     /// through its inverse transpose, winding reversed by a mirror.
     fn place(&mut self, mut mesh: MeshData, m: DAffine3, line: Option<usize>) {
@@ -259,36 +431,7 @@ impl SceneBuilder {
         }
         let base_material = s.materials.len() as u32;
         s.materials.append(&mut mesh.materials);
-        for p in &mut mesh.positions {
-            *p = m.transform_point3(*p);
-        }
-        let normal_matrix = m.matrix3.inverse().transpose();
-        for corners in &mut mesh.normals {
-            *corners = corners.map(|n| {
-                // a zero, non-finite or degenerate normal shades flat; a
-                // unit one (to a few ulps) is kept as it is, so that a
-                // scene written out with its normals reads back to the
-                // same bits
-                let w = (normal_matrix * n.as_dvec3()).as_vec3();
-                let w = if (w.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON {
-                    w
-                } else {
-                    w.normalize_or_zero()
-                };
-                if w.is_finite() { w } else { Vec3::ZERO }
-            });
-        }
-        if m.matrix3.determinant() < 0.0 {
-            for t in &mut mesh.indices {
-                t.swap(1, 2);
-            }
-            for uv in &mut mesh.uvs {
-                uv.swap(1, 2);
-            }
-            for ns in &mut mesh.normals {
-                ns.swap(1, 2);
-            }
-        }
+        mesh.transform_by(&m);
         self.counts.0 += mesh.indices.len() as u64;
         self.counts.1 += mesh.positions.len() as u64;
         self.placed.push(Placed {
@@ -455,6 +598,14 @@ impl SceneBuilder {
             add(c - r as f64);
             add(c + r as f64);
         }
+        for inst in &self.instances {
+            let m = &self.prototypes[inst.prototype as usize].mesh;
+            for t in &m.indices {
+                for &i in t {
+                    add(inst.matrix.transform_point3(m.positions[i as usize]));
+                }
+            }
+        }
         (lo, hi)
     }
 
@@ -500,14 +651,13 @@ impl SceneBuilder {
             });
             self.scene.sphere_material.push(m);
         }
+        self.build_instances(origin);
         for (p, mut light) in std::mem::take(&mut self.point_lights) {
             light.position = (p - origin).as_vec3();
             self.scene.point_lights.push(light);
         }
         let s = &self.scene;
-        let emits = |m: u32| s.materials[m as usize].emission.max_element() > 0.0;
-        let lit = s.tri_material.iter().any(|&m| emits(m))
-            || s.sphere_material.iter().any(|&m| emits(m))
+        let lit = s.has_emitters()
             || s.point_lights
                 .iter()
                 .any(|l| l.intensity.max_element() > 0.0)
@@ -530,6 +680,79 @@ impl SceneBuilder {
         }
         self.scene
     }
+}
+
+/// A prototype mesh in f32 object space, centred on its box: the geometry,
+/// the shading data (materials offset by `base_material`), the centre
+/// subtracted, and how many triangles were dropped (degenerate or
+/// non-finite in f32).
+fn object_space(mesh: MeshData, base_material: u32) -> (Prototype, PrototypeShading, DVec3, usize) {
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for t in &mesh.indices {
+        for &i in t {
+            let p = mesh.positions[i as usize];
+            if p.is_finite() {
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+    }
+    let centre = if lo.x <= hi.x {
+        0.5 * (lo + hi)
+    } else {
+        DVec3::ZERO
+    };
+    let mut proto = Prototype {
+        positions: mesh
+            .positions
+            .iter()
+            .map(|&p| (p - centre).as_vec3())
+            .collect(),
+        indices: Vec::with_capacity(mesh.indices.len()),
+    };
+    let mut shading = PrototypeShading {
+        name: mesh.name.clone(),
+        ..PrototypeShading::default()
+    };
+    let (keep_uv, keep_normals) = (!mesh.uvs.is_empty(), !mesh.normals.is_empty());
+    let mut dropped = 0;
+    for (k, (t, &mat)) in mesh.indices.iter().zip(&mesh.tri_material).enumerate() {
+        let p = t.map(|i| proto.positions[i as usize]);
+        let normal = p
+            .iter()
+            .all(|q| q.abs().max_element() <= MAX_COORDINATE)
+            .then(|| triangle_normal(p[0], p[1], p[2]))
+            .flatten();
+        let Some(n) = normal else {
+            dropped += 1;
+            continue;
+        };
+        proto.indices.push(*t);
+        shading.normals.push(n);
+        shading.needle.push(needle_factor(p));
+        shading.tri_material.push(base_material + mat);
+        if keep_uv {
+            shading
+                .tri_uv
+                .push(mesh.uvs.get(k).copied().unwrap_or([Vec2::ZERO; 3]));
+        }
+        if keep_normals {
+            // corners face the triangle's front, as for placed meshes
+            let ns = mesh.normals.get(k).copied().unwrap_or([Vec3::ZERO; 3]);
+            let ns = ns.map(|c| {
+                let c = c.normalize_or_zero();
+                if !c.is_finite() {
+                    Vec3::ZERO
+                } else if c.dot(n) < 0.0 {
+                    -c
+                } else {
+                    c
+                }
+            });
+            shading.tri_shading_normals.push(ns);
+        }
+    }
+    (proto, shading, centre, dropped)
 }
 
 #[cfg(test)]

@@ -71,6 +71,71 @@ pub struct MeshData {
 }
 
 impl MeshData {
+    /// Move the mesh by `m` (f64): positions through `m`, vertex normals
+    /// through its inverse transpose (a unit normal that stays unit to a few
+    /// ulps is kept as it is, so a scene written out with its normals reads
+    /// back to the same bits; a zero, non-finite or degenerate one shades
+    /// flat), and the winding (with the per-corner attributes) reversed by
+    /// a mirror, so each triangle's front stays where its normal says.
+    pub fn transform_by(&mut self, m: &DAffine3) {
+        for p in &mut self.positions {
+            *p = m.transform_point3(*p);
+        }
+        let normal_matrix = m.matrix3.inverse().transpose();
+        for corners in &mut self.normals {
+            *corners = corners.map(|n| {
+                let w = (normal_matrix * n.as_dvec3()).as_vec3();
+                let w = if (w.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON {
+                    w
+                } else {
+                    w.normalize_or_zero()
+                };
+                if w.is_finite() { w } else { Vec3::ZERO }
+            });
+        }
+        if m.matrix3.determinant() < 0.0 {
+            for t in &mut self.indices {
+                t.swap(1, 2);
+            }
+            for uv in &mut self.uvs {
+                uv.swap(1, 2);
+            }
+            for ns in &mut self.normals {
+                ns.swap(1, 2);
+            }
+        }
+    }
+
+    /// Append `other`'s triangles, materials and per-corner attributes (a
+    /// mesh with none gets zeros where the other has some).
+    pub fn append(&mut self, mut other: MeshData) {
+        let (n_self, n_other) = (self.indices.len(), other.indices.len());
+        let base_vertex = self.positions.len() as u32;
+        let base_material = self.materials.len() as u32;
+        if !self.uvs.is_empty() || !other.uvs.is_empty() {
+            self.uvs.resize(n_self, [Vec2::ZERO; 3]);
+            other.uvs.resize(n_other, [Vec2::ZERO; 3]);
+            self.uvs.append(&mut other.uvs);
+        }
+        if !self.normals.is_empty() || !other.normals.is_empty() {
+            self.normals.resize(n_self, [Vec3::ZERO; 3]);
+            other.normals.resize(n_other, [Vec3::ZERO; 3]);
+            self.normals.append(&mut other.normals);
+        }
+        self.positions.append(&mut other.positions);
+        self.indices
+            .extend(other.indices.iter().map(|t| t.map(|i| i + base_vertex)));
+        self.tri_material
+            .extend(other.tri_material.iter().map(|m| m + base_material));
+        self.materials.append(&mut other.materials);
+        self.warnings.append(&mut other.warnings);
+        for f in other.files {
+            if !self.files.contains(&f) {
+                self.files.push(f);
+            }
+        }
+    }
+
     /// Smooth vertex normals, per triangle corner: at each vertex the sum
     /// of its triangles' unit normals weighted by the triangle's angle at
     /// that vertex (Thürmer and Wüthrich 1998, the weighting Mitsuba uses

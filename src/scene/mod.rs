@@ -15,6 +15,7 @@ mod builder;
 mod collada;
 mod cse;
 mod input;
+mod instances;
 mod mesh;
 mod mitsuba;
 mod obj;
@@ -38,6 +39,7 @@ use std::sync::Arc;
 pub use builder::{SceneBuilder, WorldCamera, render_origin};
 use input::read_scene_text;
 pub(crate) use input::{Content, not_a_file, read_bounded};
+pub use instances::{NO_OVERRIDE, PrototypeShading, SceneInstances};
 pub use mesh::{MeshData, Transform};
 pub use obj::load_obj_mesh;
 pub use ply::{MAX_POLYGON, load_ply_mesh};
@@ -159,6 +161,9 @@ pub struct Scene {
     pub spheres: Vec<Sphere>,
     /// Material index per sphere.
     pub sphere_material: Vec<u32>,
+    /// Instanced meshes: prototypes stored once and their placements, whose
+    /// triangles are the primitives after the spheres.
+    pub instances: SceneInstances,
     /// Radiance of the uniform environment light, if any.
     pub environment: Option<Vec3>,
     /// The image-based environment light, if any.
@@ -230,20 +235,42 @@ impl Scene {
         }
     }
 
-    /// Number of triangles.
+    /// Number of placed (not instanced) triangles.
     pub fn triangle_count(&self) -> usize {
         self.indices.len()
     }
 
-    /// The three corners of triangle `prim`.
+    /// The first instanced primitive: placed triangles and spheres come
+    /// before.
     #[inline]
-    pub fn triangle(&self, prim: u32) -> [Vec3; 3] {
-        self.indices[prim as usize].map(|i| self.positions[i as usize])
+    fn first_instanced(&self) -> usize {
+        self.indices.len() + self.spheres.len()
     }
 
-    /// Number of primitives: triangles, then spheres.
+    /// The placement and prototype triangle of primitive `prim`, if it is
+    /// an instanced one.
+    #[inline]
+    pub fn instanced(&self, prim: u32) -> Option<(usize, u32)> {
+        ((prim as usize) >= self.first_instanced()).then(|| self.instances.locate(prim))
+    }
+
+    /// The three corners of triangle `prim` (placed or instanced), in render
+    /// space.
+    #[inline]
+    pub fn triangle(&self, prim: u32) -> [Vec3; 3] {
+        match self.indices.get(prim as usize) {
+            Some(t) => t.map(|i| self.positions[i as usize]),
+            None => {
+                let (k, t) = self.instances.locate(prim);
+                self.instances.triangle(k, t)
+            }
+        }
+    }
+
+    /// Number of primitives: placed triangles, spheres, then instanced
+    /// triangles.
     pub fn primitive_count(&self) -> usize {
-        self.indices.len() + self.spheres.len()
+        self.first_instanced() + self.instances.triangle_count() as usize
     }
 
     /// The sphere that primitive `prim` is, if it is one.
@@ -251,16 +278,23 @@ impl Scene {
     pub fn sphere(&self, prim: u32) -> Option<&Sphere> {
         (prim as usize)
             .checked_sub(self.indices.len())
-            .map(|i| &self.spheres[i])
+            .and_then(|i| self.spheres.get(i))
     }
 
-    /// The material index of primitive `prim`.
+    /// The material index of primitive `prim` (a triangle, a sphere or an
+    /// instanced triangle).
     #[inline]
     pub fn material_index(&self, prim: u32) -> u32 {
         let nt = self.indices.len();
         match (prim as usize).checked_sub(nt) {
             None => self.tri_material[prim as usize],
-            Some(i) => self.sphere_material[i],
+            Some(i) => match self.sphere_material.get(i) {
+                Some(&m) => m,
+                None => {
+                    let (k, t) = self.instances.locate(prim);
+                    self.instances.material_index(k, t)
+                }
+            },
         }
     }
 
@@ -270,12 +304,26 @@ impl Scene {
         &self.materials[self.material_index(prim) as usize]
     }
 
-    /// The surface point at barycentrics `(u, v)` of triangle `prim`, rebuilt
-    /// from the vertex buffer with its error bound.
+    /// The surface point at barycentrics `(u, v)` of placed triangle `prim`,
+    /// rebuilt from the vertex buffer with its error bound.
+    #[inline]
+    pub fn surface_point_placed(&self, prim: u32, u: f32, v: f32) -> SurfacePoint {
+        let i = prim as usize;
+        let p = self.indices[i].map(|k| self.positions[k as usize]);
+        SurfacePoint::on_triangle_with(p, u, v, self.normals[i], self.needle[i])
+    }
+
+    /// The surface point at barycentrics `(u, v)` of triangle `prim`, placed
+    /// ([`Scene::surface_point_placed`]) or instanced
+    /// ([`SceneInstances::surface_point`]).
     #[inline]
     pub fn surface_point(&self, prim: u32, u: f32, v: f32) -> SurfacePoint {
-        let i = prim as usize;
-        SurfacePoint::on_triangle_with(self.triangle(prim), u, v, self.normals[i], self.needle[i])
+        if (prim as usize) < self.indices.len() {
+            self.surface_point_placed(prim, u, v)
+        } else {
+            let (k, t) = self.instances.locate(prim);
+            self.instances.surface_point(k, t, u, v)
+        }
     }
 
     /// The surface point a backend's `hit` of `ray` stands for: rebuilt from
@@ -289,13 +337,29 @@ impl Scene {
         }
     }
 
+    /// The vertex normals of triangle `prim` (render space), when all three
+    /// of its corners have one; `None` for spheres and flat triangles.
+    #[inline]
+    pub fn corner_normals(&self, prim: u32) -> Option<[Vec3; 3]> {
+        if (prim as usize) < self.first_instanced() {
+            let c = self.tri_shading_normals.get(prim as usize)?;
+            return c.iter().all(|n| *n != Vec3::ZERO).then_some(*c);
+        }
+        let (k, t) = self.instances.locate(prim);
+        self.instances.corner_normals(k, t)
+    }
+
     /// Texture coordinates at a surface point: interpolated corner UVs on a
     /// triangle (zero when its mesh has none), or on a sphere, from its outward
     /// normal `n`, `u = atan2(-n.z, n.x) / 2 pi` wrapped to `[0, 1)` and
     /// `v = 1 - acos(n.y) / pi`, so `v = 1` at the top (+y) pole.
     pub fn uv(&self, prim: u32, sp: &SurfacePoint, u: f32, v: f32) -> Vec2 {
+        let corners = match self.instanced(prim) {
+            Some((k, t)) => self.instances.uv(k, t),
+            None => self.tri_uv.get(prim as usize).copied(),
+        };
         match self.sphere(prim) {
-            None => match self.tri_uv.get(prim as usize) {
+            None => match corners {
                 Some(t) => (1.0 - u - v) * t[0] + u * t[1] + v * t[2],
                 None => Vec2::ZERO,
             },
@@ -333,10 +397,17 @@ impl Scene {
         self.camera.fov_y = fov_for_focal(f, self.resolution[1]);
     }
 
-    /// Axis-aligned bounds of all vertices used by triangles and of all
-    /// spheres: `(min, max)`.
+    /// Axis-aligned bounds of all vertices used by triangles, of all
+    /// spheres and of every placement's box: `(min, max)`.
     pub fn bounds(&self) -> Bounds {
         let mut b = Bounds::empty();
+        if !self.instances.is_empty() {
+            let (lo, hi) = self.instances.bounds();
+            if lo.x <= hi.x {
+                b.extend(lo);
+                b.extend(hi);
+            }
+        }
         for t in &self.indices {
             for &i in t {
                 b.extend(self.positions[i as usize]);
@@ -355,12 +426,39 @@ impl Scene {
             positions: &self.positions,
             indices: &self.indices,
             spheres: &self.spheres,
+            instances: self.instances.soup(),
         }
+    }
+
+    /// The material indices some primitive uses (instanced ones included),
+    /// each once, in increasing order.
+    pub fn used_materials(&self) -> Vec<u32> {
+        let mut used = vec![false; self.materials.len()];
+        for &m in self.tri_material.iter().chain(&self.sphere_material) {
+            used[m as usize] = true;
+        }
+        let inst = &self.instances;
+        for (k, p) in inst.placements.iter().enumerate() {
+            let proto = &inst.shading[p.prototype as usize];
+            match inst.material[k] {
+                NO_OVERRIDE => proto
+                    .tri_material
+                    .iter()
+                    .for_each(|&m| used[m as usize] = true),
+                m if !proto.tri_material.is_empty() => used[m as usize] = true,
+                _ => {}
+            }
+        }
+        (0..self.materials.len() as u32)
+            .filter(|&m| used[m as usize])
+            .collect()
     }
 
     /// Whether any material of a primitive emits.
     pub fn has_emitters(&self) -> bool {
-        (0..self.primitive_count()).any(|i| self.material(i as u32).emission.max_element() > 0.0)
+        self.used_materials()
+            .iter()
+            .any(|&m| self.materials[m as usize].emission.max_element() > 0.0)
     }
 }
 
