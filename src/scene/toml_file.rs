@@ -70,6 +70,8 @@ struct SceneFile {
     procedural: Vec<ProceduralToml>,
     #[serde(default)]
     sphere: Vec<SphereToml>,
+    #[serde(default)]
+    instance: Vec<InstanceToml>,
 }
 
 #[derive(Deserialize)]
@@ -84,6 +86,9 @@ struct ProceduralToml {
     seed: u64,
     transform: Option<TransformToml>,
     material: Option<MaterialToml>,
+    name: Option<String>,
+    #[serde(default)]
+    instance_only: bool,
 }
 
 fn default_displacement() -> f32 {
@@ -126,6 +131,89 @@ struct MeshToml {
     file: String,
     transform: Option<TransformToml>,
     material: Option<MaterialToml>,
+    /// A name `[[instance]]` tables place it by.
+    name: Option<String>,
+    /// Stored for instances only, not placed itself.
+    #[serde(default)]
+    instance_only: bool,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct InstanceToml {
+    /// The `name` of the `[[mesh]]` or `[[procedural]]` it places.
+    of: String,
+    transform: Option<TransformToml>,
+    /// A 4 x 4 affine matrix, row-major (instead of `transform`).
+    matrix: Option<Exact<f64, 16>>,
+    /// Every triangle of this instance takes this material.
+    material: Option<MaterialToml>,
+}
+
+/// The named meshes (`[[mesh]]` and `[[procedural]]` with a `name`) that
+/// instances place: which `[[instance]]` tables name, and for each name
+/// stored, its prototype and the mesh's own transform.
+struct Named<'p> {
+    /// The scene file, for messages.
+    path: &'p Path,
+    /// Names some `[[instance]]` places.
+    wanted: std::collections::HashSet<String>,
+    /// Name, prototype index and own transform of each named mesh.
+    stored: HashMap<String, (Option<u32>, glam::DAffine3, Option<usize>)>,
+}
+
+impl Named<'_> {
+    /// Add mesh `mesh` placed by `transform`, declared at `line` with
+    /// `name` and `instance_only`: a mesh an instance places (or one only
+    /// instances use) is stored once as a prototype (placed by an instance
+    /// of its own unless `instance_only`); any other mesh is placed as it is.
+    fn add(
+        &mut self,
+        b: &mut SceneBuilder,
+        line: Option<usize>,
+        name: Option<&String>,
+        instance_only: bool,
+        mesh: MeshData,
+        transform: &Transform,
+    ) -> Result<()> {
+        let path = self.path;
+        let Some(name) = name else {
+            if instance_only {
+                return Err(Error::input(
+                    path,
+                    line,
+                    "`instance_only = true` needs a `name` for instances to place it by",
+                ));
+            }
+            return b.add_mesh_from(mesh, transform, line);
+        };
+        if name.is_empty() {
+            return Err(Error::input(path, line, "`name` must not be empty"));
+        }
+        if let Some((_, _, first)) = self.stored.get(name) {
+            let at = first
+                .map(|l| format!(" (first at line {l})"))
+                .unwrap_or_default();
+            return Err(Error::input(
+                path,
+                line,
+                format!("a second mesh named `{}`{at}", crate::error::clip(name)),
+            ));
+        }
+        let m = transform.matrix();
+        let prototype = if instance_only || self.wanted.contains(name) {
+            let p = b.add_prototype(mesh, line)?;
+            if !instance_only {
+                b.add_instance(p, m, None, line)?;
+            }
+            Some(p)
+        } else {
+            b.add_mesh_from(mesh, transform, line)?;
+            None
+        };
+        self.stored.insert(name.clone(), (prototype, m, line));
+        Ok(())
+    }
 }
 
 #[derive(Deserialize)]
@@ -566,6 +654,22 @@ fn parse_transform(
     Ok(transform)
 }
 
+/// The affine map of a row-major 4 x 4 `matrix` (an instance's `matrix`
+/// key): finite, with a last row of `[0, 0, 0, 1]`.
+fn affine_from_rows(m: &[f64; 16]) -> std::result::Result<glam::DAffine3, String> {
+    if !m.iter().all(|x| x.is_finite()) {
+        return Err("matrix must be 16 finite numbers".to_string());
+    }
+    if m[12..] != [0.0, 0.0, 0.0, 1.0] {
+        return Err(format!(
+            "matrix must be affine: its last row must be [0, 0, 0, 1], got {:?}",
+            &m[12..]
+        ));
+    }
+    let col = |c: usize| DVec3::new(m[c], m[4 + c], m[8 + c]);
+    Ok(glam::DAffine3::from_cols(col(0), col(1), col(2), col(3)))
+}
+
 /// Load a TOML scene.
 pub fn load(path: &Path) -> Result<Scene> {
     let bytes = super::read_bounded(
@@ -583,6 +687,11 @@ pub fn load(path: &Path) -> Result<Scene> {
     let mut b = SceneBuilder::new(path);
     let mut textures = Textures::default();
 
+    let mut named = Named {
+        path,
+        wanted: file.instance.iter().map(|i| i.of.clone()).collect(),
+        stored: HashMap::new(),
+    };
     let mesh_lines = table_lines(&text, "mesh");
     // a file listed again is parsed once
     let mut loaded: HashMap<PathBuf, MeshData> = HashMap::new();
@@ -641,7 +750,14 @@ pub fn load(path: &Path) -> Result<Scene> {
             }
         }
         let transform = parse_transform(path, line, m.transform.as_ref())?;
-        b.add_mesh_from(mesh, &transform, line)?;
+        named.add(
+            &mut b,
+            line,
+            m.name.as_ref(),
+            m.instance_only,
+            mesh,
+            &transform,
+        )?;
     }
 
     let procedural_lines = table_lines(&text, "procedural");
@@ -700,8 +816,57 @@ pub fn load(path: &Path) -> Result<Scene> {
         }
         let transform = parse_transform(path, line, p.transform.as_ref())?;
         let name = format!("procedural {} #{i} ({tris} triangles)", p.kind);
+        let name = p.name.clone().unwrap_or(name);
         let mesh = procedural::generate(shape, triangles, p.displacement, p.seed, &name, material);
-        b.add_mesh_from(mesh, &transform, line)?;
+        named.add(
+            &mut b,
+            line,
+            p.name.as_ref(),
+            p.instance_only,
+            mesh,
+            &transform,
+        )?;
+    }
+
+    let instance_lines = table_lines(&text, "instance");
+    for (i, inst) in file.instance.iter().enumerate() {
+        let line = instance_lines.get(i).copied();
+        let fail = |m: String| Error::input(path, line, m);
+        let Some(&(prototype, own, _)) = named.stored.get(&inst.of) else {
+            let mut names: Vec<&str> = named.stored.keys().map(|k| k.as_str()).collect();
+            names.sort_unstable();
+            let known = if names.is_empty() {
+                "no [[mesh]] or [[procedural]] has a `name`".to_string()
+            } else {
+                format!("named meshes: {}", crate::error::clip(&names.join(", ")))
+            };
+            return Err(fail(format!(
+                "instance of unknown mesh `{}` ({known})",
+                crate::error::clip(&inst.of)
+            )));
+        };
+        let prototype = prototype.expect("a mesh an instance names is stored as a prototype");
+        let placement = match (&inst.transform, inst.matrix) {
+            (Some(_), Some(_)) => {
+                return Err(fail(
+                    "an instance takes `transform` or `matrix`, not both".to_string(),
+                ));
+            }
+            (_, Some(Exact(m))) => affine_from_rows(&m).map_err(fail)?,
+            (t, None) => parse_transform(path, line, t.as_ref())?.matrix(),
+        };
+        let material = match &inst.material {
+            Some(over) => {
+                let mut material = Material {
+                    name: format!("instance{i}"),
+                    ..Material::default()
+                };
+                apply_material(path, line, over, &mut material, &mut textures)?;
+                Some(material)
+            }
+            None => None,
+        };
+        b.add_instance(prototype, placement * own, material, line)?;
     }
 
     let sphere_lines = table_lines(&text, "sphere");
