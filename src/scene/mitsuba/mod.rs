@@ -74,6 +74,8 @@ struct Loader<'a, 'i> {
     dir: PathBuf,
     defaults: HashMap<String, String>,
     ids: HashMap<String, Node<'a, 'i>>,
+    /// Shapegroups by id: their prototypes in the scene builder.
+    groups: HashMap<String, u32>,
     textures: HashMap<PathBuf, Arc<ImageTexture>>,
     warnings: Vec<String>,
     doc: &'a Document<'i>,
@@ -100,6 +102,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         dir: path.parent().unwrap_or(Path::new("")).to_path_buf(),
         defaults: HashMap::new(),
         ids: HashMap::new(),
+        groups: HashMap::new(),
         textures: HashMap::new(),
         warnings: Vec::new(),
         doc: &doc,

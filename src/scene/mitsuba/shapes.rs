@@ -1,6 +1,9 @@
 //! Shapes: `obj` and `ply` meshes, and the built-in `rectangle`, `cube`,
 //! `disk` (tessellated) and `sphere` (analytic), with `to_world`,
-//! `flip_normals`, `face_normals` and an `area` emitter inside.
+//! `flip_normals`, `face_normals` and an `area` emitter inside; and
+//! instancing: a `shapegroup` (its meshes, each placed by its own
+//! `to_world`, stored once as one prototype) and `instance` (a `<ref>` to a
+//! shapegroup and a `to_world`).
 
 use super::Loader;
 use super::params::Params;
@@ -10,6 +13,14 @@ use crate::math::{Vec2, Vec3};
 use crate::scene::{Material, MeshData, SceneBuilder, load_obj_mesh, load_ply_mesh};
 use glam::{DAffine3, DVec3};
 use roxmltree::Node;
+
+/// What one `<shape>` adds.
+pub(super) enum Geometry {
+    /// A mesh in its own space and its `to_world`.
+    Mesh(MeshData, DAffine3),
+    /// An analytic sphere: world centre, radius, material.
+    Sphere(DVec3, f32, Material),
+}
 
 /// Triangles of a tessellated `disk`.
 pub const DISK_SEGMENTS: usize = 256;
@@ -25,9 +36,117 @@ impl<'a, 'i> Loader<'a, 'i> {
     }
 
     pub(super) fn shape(&mut self, node: Node<'a, 'i>, b: &mut SceneBuilder) -> Result<()> {
+        let line = Some(self.line(node));
+        match self.need_attr(node, "type")?.as_str() {
+            "shapegroup" => self.shapegroup(node, b),
+            "instance" => self.instance(node, b),
+            _ => match self.shape_geometry(node)? {
+                Geometry::Mesh(mesh, m) => b.add_mesh_matrix(mesh, m, line),
+                Geometry::Sphere(c, r, material) => b.add_sphere(c, r, material, line),
+            },
+        }
+    }
+
+    /// A `shapegroup`: its shapes (meshes only; a sphere inside is refused),
+    /// each moved by its own `to_world`, merged into one prototype that
+    /// `instance`s place by the group's `id`.
+    fn shapegroup(&mut self, node: Node<'a, 'i>, b: &mut SceneBuilder) -> Result<()> {
+        let id = self.need_attr(node, "id")?;
+        if self.groups.contains_key(&id) {
+            return Err(self.fail(
+                node,
+                format!("a second shapegroup with id `{}`", one_line(&id)),
+            ));
+        }
+        let mut group = MeshData {
+            name: id.clone(),
+            ..MeshData::default()
+        };
+        for c in node.children().filter(|n| n.is_element()) {
+            if c.tag_name().name() != "shape" {
+                return Err(self.fail(
+                    c,
+                    format!(
+                        "<{}> inside a shapegroup (expected <shape>)",
+                        one_line(c.tag_name().name())
+                    ),
+                ));
+            }
+            let kind = self.need_attr(c, "type")?;
+            if matches!(kind.as_str(), "shapegroup" | "instance") {
+                return Err(self.fail(
+                    c,
+                    format!(
+                        "a `{}` inside a shapegroup (one level of instancing)",
+                        one_line(&kind)
+                    ),
+                ));
+            }
+            match self.shape_geometry(c)? {
+                Geometry::Mesh(mut mesh, m) => {
+                    mesh.transform_by(&m);
+                    group.append(mesh);
+                }
+                Geometry::Sphere(..) => {
+                    return Err(self.fail(
+                        c,
+                        "a sphere inside a shapegroup is not supported (instances hold meshes; place the sphere itself)",
+                    ));
+                }
+            }
+        }
+        let prototype = b.add_prototype(group, Some(self.line(node)))?;
+        self.groups.insert(id, prototype);
+        Ok(())
+    }
+
+    /// An `instance`: the shapegroup its `<ref>` names, placed by its
+    /// `to_world`.
+    fn instance(&mut self, node: Node<'a, 'i>, b: &mut SceneBuilder) -> Result<()> {
+        let refs: Vec<Node> = node
+            .children()
+            .filter(|n| n.is_element() && n.tag_name().name() == "ref")
+            .collect();
+        let [r] = refs[..] else {
+            return Err(self.fail(
+                node,
+                "an instance needs exactly one <ref id=\"...\"/> naming a shapegroup",
+            ));
+        };
+        let id = self.need_attr(r, "id")?;
+        let Some(&prototype) = self.groups.get(&id) else {
+            return Err(self.fail(
+                r,
+                format!(
+                    "instance of `{}`, which is no shapegroup defined above",
+                    one_line(&id)
+                ),
+            ));
+        };
+        let mut m = DAffine3::IDENTITY;
+        for c in node.children().filter(|n| n.is_element()) {
+            match (c.tag_name().name(), c.attribute("name")) {
+                ("ref", _) => {}
+                ("transform", Some("to_world")) => m = self.transform(c)?,
+                (tag, _) => {
+                    return Err(self.fail(
+                        c,
+                        format!(
+                            "<{}> inside an instance (it takes a <ref> and a to_world <transform>)",
+                            one_line(tag)
+                        ),
+                    ));
+                }
+            }
+        }
+        b.add_instance(prototype, m, None, Some(self.line(node)))
+    }
+
+    /// A shape's geometry: a mesh (as read, with its material) and its
+    /// `to_world`, or an analytic sphere placed in world space.
+    fn shape_geometry(&mut self, node: Node<'a, 'i>) -> Result<Geometry> {
         let kind = self.need_attr(node, "type")?;
         let at = self.line(node);
-        let line = Some(at);
         let mut p = self.params(node)?;
         let mut material = self.shape_material(&mut p)?;
         if let Some(e) = p.unnamed_of("emitter") {
@@ -93,13 +212,13 @@ impl<'a, 'i> Loader<'a, 'i> {
                         format!("sphere at {c} of radius {r}: the radius must be > 0 and the sphere within +-{MAX_COORDINATE:e}"),
                     ));
                 }
-                return b.add_sphere(c, r, material, line);
+                return Ok(Geometry::Sphere(c, r, material));
             }
             other => {
                 return Err(self.fail(
                     node,
                     format!(
-                        "shape `{}` is not in the subset (expected obj, ply, rectangle, cube, sphere or disk)",
+                        "shape `{}` is not in the subset (expected obj, ply, rectangle, cube, sphere, disk, shapegroup or instance)",
                         one_line(other)
                     ),
                 ));
@@ -139,7 +258,7 @@ impl<'a, 'i> Loader<'a, 'i> {
         mesh.name = material.name.clone();
         mesh.materials = vec![material];
         mesh.tri_material = vec![0; mesh.indices.len()];
-        b.add_mesh_matrix(mesh, m, line)
+        Ok(Geometry::Mesh(mesh, m))
     }
 
     /// A sphere's world centre and radius: `to_world` must be a similarity.

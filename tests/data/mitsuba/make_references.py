@@ -9,7 +9,10 @@ same XML files against them, block by block.
     pip install mitsuba numpy
     # faster: apt-get install libllvm19 and
     # DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1
-    python3 tests/data/mitsuba/make_references.py [SPP_PER_PASS]
+    python3 tests/data/mitsuba/make_references.py [SPP_PER_PASS [SCENE ...]]
+
+With scene names, only those are rendered again; references.json keeps the
+other scenes' entries.
 
 The scenes themselves are hand-written; this script only reads them.
 """
@@ -23,7 +26,7 @@ import mitsuba as mi
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-SCENES = ["cbox", "lights", "envmap"]
+SCENES = ["cbox", "lights", "envmap", "instances"]
 PASSES = 8
 SPP = int(sys.argv[1]) if len(sys.argv) > 1 else 4096
 
@@ -126,10 +129,21 @@ if __name__ == "__main__":
     floor_ply()
     sky_exr()
     checker_png()
+    only = sys.argv[2:]
+    unknown = [s for s in only if s not in SCENES]
+    if unknown:
+        sys.exit(f"unknown scenes {unknown} (expected some of {SCENES})")
     info = {"generator": "tests/data/mitsuba/make_references.py",
             "mitsuba_version": mi.__version__, "variant": mi.variant(),
             "passes": PASSES, "spp_per_pass": SPP, "mean": {}}
-    for s in SCENES:
+    if only:
+        with open(os.path.join(HERE, "references.json")) as f:
+            old = json.load(f)
+        if (old["mitsuba_version"], old["passes"], old["spp_per_pass"]) != (
+                info["mitsuba_version"], PASSES, SPP):
+            sys.exit("references.json was made with other settings: render every scene")
+        info["mean"] = old["mean"]
+    for s in (only or SCENES):
         info["mean"][s] = render(s)
         print(s, info["mean"][s], flush=True)
     with open(os.path.join(HERE, "references.json"), "w") as out:
