@@ -56,6 +56,26 @@ fn round_trip(path: &Path) {
         path.display()
     );
     assert_eq!(again.spheres, scene.spheres);
+    // instances stay instances, with the same object-space triangles and
+    // the same maps
+    // (each triangle's corners: the OBJ shares no vertex)
+    let prototypes = |s: &Scene| {
+        s.instances
+            .prototypes
+            .iter()
+            .map(|p| (0..p.indices.len() as u32).map(|t| p.triangle(t)).collect())
+            .collect::<Vec<Vec<_>>>()
+    };
+    assert!(
+        prototypes(&again) == prototypes(&scene),
+        "{}: prototype triangles moved",
+        path.display()
+    );
+    assert!(
+        again.instances.placements == scene.instances.placements,
+        "{}: placements moved",
+        path.display()
+    );
     assert_eq!(again.camera, scene.camera);
     // a pinhole's focus distance means nothing
     if scene.lens.is_pinhole() {
@@ -83,7 +103,12 @@ fn round_trip(path: &Path) {
 
 #[test]
 fn bundled_scenes_round_trip_to_the_same_bits() {
-    for name in ["cornell-box.toml", "cornell-spheres.toml", "materials.toml"] {
+    for name in [
+        "cornell-box.toml",
+        "cornell-spheres.toml",
+        "materials.toml",
+        "instances.toml",
+    ] {
         round_trip(
             &Path::new(env!("CARGO_MANIFEST_DIR"))
                 .join("scenes")

@@ -97,11 +97,14 @@ fn general_kernel_gives_the_same_bits_on_every_bundled_scene_and_backend() {
             assert_same_bits(name, &scene, backend, [24, 16], 2);
         }
     }
-    // a million triangles: the fast backends only, a few pixels
-    let scene = Scene::load(&bundled("sphere-1m.toml")).unwrap();
-    for backend in Backend::available() {
-        if backend != Backend::Naive {
-            assert_same_bits("sphere-1m.toml", &scene, backend, [8, 8], 1);
+    // a million triangles, or 20 million placed: the fast backends only,
+    // a few pixels
+    for name in ["sphere-1m.toml", "instances.toml"] {
+        let scene = Scene::load(&bundled(name)).unwrap();
+        for backend in Backend::available() {
+            if backend != Backend::Naive {
+                assert_same_bits(name, &scene, backend, [8, 8], 1);
+            }
         }
     }
 }

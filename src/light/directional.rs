@@ -31,6 +31,14 @@ impl DirectionalLight {
         if !direction.is_finite() || !(m > 0.0) {
             return None;
         }
+        // a unit direction (to a few ulps) is kept as it is, so a scene
+        // written out by `convert` reads back to the same bits
+        if (direction.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON {
+            return Some(DirectionalLight {
+                direction,
+                irradiance,
+            });
+        }
         let d = direction / m;
         Some(DirectionalLight {
             direction: d / d.length(),

@@ -397,9 +397,8 @@ impl SceneBuilder {
         let mut first = (s.indices.len() + s.spheres.len()) as u32;
         for inst in std::mem::take(&mut self.instances) {
             let k = inst.prototype as usize;
-            let m = DAffine3::from_translation(-origin)
-                * inst.matrix
-                * DAffine3::from_translation(centres[k]);
+            let world = inst.matrix * DAffine3::from_translation(centres[k]);
+            let m = DAffine3::from_translation(-origin) * world;
             let Some(placement) = Placement::new(inst.prototype, m, first) else {
                 let at = crate::error::Location {
                     file: s.source.clone(),
@@ -416,6 +415,7 @@ impl SceneBuilder {
             out.material.push(inst.material);
             out.normal_matrix
                 .push(m.matrix3.inverse().transpose().as_mat3());
+            out.world.push(world);
         }
         s.instances = out;
     }
@@ -682,7 +682,8 @@ impl SceneBuilder {
     }
 }
 
-/// A prototype mesh in f32 object space, centred on its box: the geometry,
+/// A prototype mesh in f32 object space, centred on its box when it lies
+/// farther from its origin than twice its size: the geometry,
 /// the shading data (materials offset by `base_material`), the centre
 /// subtracted, and how many triangles were dropped (degenerate or
 /// non-finite in f32).
@@ -697,11 +698,15 @@ fn object_space(mesh: MeshData, base_material: u32) -> (Prototype, PrototypeShad
             }
         }
     }
-    let centre = if lo.x <= hi.x {
-        0.5 * (lo + hi)
-    } else {
-        DVec3::ZERO
-    };
+    // re-centred only when far from its own origin (so a mesh modelled
+    // around it, or written out by `convert`, keeps its coordinates bit for
+    // bit)
+    let centre =
+        if lo.x <= hi.x && (0.5 * (lo + hi)).abs().max_element() > 2.0 * (hi - lo).max_element() {
+            0.5 * (lo + hi)
+        } else {
+            DVec3::ZERO
+        };
     let mut proto = Prototype {
         positions: mesh
             .positions
@@ -740,7 +745,13 @@ fn object_space(mesh: MeshData, base_material: u32) -> (Prototype, PrototypeShad
             // corners face the triangle's front, as for placed meshes
             let ns = mesh.normals.get(k).copied().unwrap_or([Vec3::ZERO; 3]);
             let ns = ns.map(|c| {
-                let c = c.normalize_or_zero();
+                // a unit normal (to a few ulps) is kept as it is, as for
+                // placed meshes, so a converted scene reads back the same
+                let c = if (c.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON {
+                    c
+                } else {
+                    c.normalize_or_zero()
+                };
                 if !c.is_finite() {
                     Vec3::ZERO
                 } else if c.dot(n) < 0.0 {

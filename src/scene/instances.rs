@@ -53,6 +53,9 @@ pub struct SceneInstances {
     /// Per placement, the normal matrix (inverse transpose of the linear
     /// part of `to_render`, from `f64`).
     pub normal_matrix: Vec<Mat3>,
+    /// Per placement, its object-to-world map in `f64` (`to_render` is this
+    /// minus the scene's world origin, rounded), which `convert` writes.
+    pub world: Vec<glam::DAffine3>,
 }
 
 impl SceneInstances {

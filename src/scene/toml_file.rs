@@ -202,6 +202,8 @@ impl Named<'_> {
         }
         let m = transform.matrix();
         let prototype = if instance_only || self.wanted.contains(name) {
+            let mut mesh = mesh;
+            mesh.name = name.clone();
             let p = b.add_prototype(mesh, line)?;
             if !instance_only {
                 b.add_instance(p, m, None, line)?;

@@ -12,6 +12,10 @@
 //! - each texture and the environment map as a linear OpenEXR file
 //!   (`STEM-texture-K.exr`, `STEM-environment.exr`) holding the texels the
 //!   renderer uses, decoded already (an sRGB PNG becomes its linear values);
+//! - one OBJ per run of one material of each instanced prototype
+//!   (`STEM-prototype-P-K.obj`, object space), a named `instance_only`
+//!   `[[mesh]]` each, and an `[[instance]]` per placement and run with the
+//!   placement's exact `f64` matrix: instances stay instances;
 //! - spheres, point, directional and environment lights, camera and lens,
 //!   film and render defaults as TOML keys.
 //!
@@ -27,8 +31,8 @@
 use crate::bsdf::{Bsdf, Distribution, Lobe};
 use crate::error::{Error, Result};
 use crate::image::{self, OutputOptions};
-use crate::math::Vec3;
-use crate::scene::{Material, Scene};
+use crate::math::{Vec2, Vec3};
+use crate::scene::{Material, NO_OVERRIDE, Scene};
 use crate::settings::{DirectStrategy, Roulette};
 use crate::texture::ImageTexture;
 use std::fmt::Write;
@@ -171,39 +175,81 @@ impl Writer<'_> {
     /// Triangles `range` as an OBJ file; returns its name.
     fn mesh(&mut self, scene: &Scene, range: std::ops::Range<usize>, k: usize) -> Result<String> {
         let name = format!("{}-mesh-{k}.obj", self.stem);
-        let mut text = format!(
-            "# {} triangles of {}, written by embertrace convert\n",
-            range.len(),
+        let corners: Vec<[Vec3; 3]> = range.clone().map(|t| scene.triangle(t as u32)).collect();
+        let uvs = scene.tri_uv.get(range.clone()).unwrap_or(&[]);
+        let normals = scene.tri_shading_normals.get(range).unwrap_or(&[]);
+        let what = format!("triangles of {}", scene.source.display());
+        self.obj(&name, &what, &corners, uvs, normals)?;
+        Ok(name)
+    }
+
+    /// Triangles `range` of prototype `p` (object space) as an OBJ file;
+    /// returns its name.
+    fn prototype(
+        &mut self,
+        scene: &Scene,
+        p: usize,
+        range: std::ops::Range<usize>,
+        k: usize,
+    ) -> Result<String> {
+        let name = format!("{}-prototype-{p}-{k}.obj", self.stem);
+        let inst = &scene.instances;
+        let proto = &inst.prototypes[p];
+        let sh = &inst.shading[p];
+        let corners: Vec<[Vec3; 3]> = range.clone().map(|t| proto.triangle(t as u32)).collect();
+        let uvs = sh.tri_uv.get(range.clone()).unwrap_or(&[]);
+        let normals = sh.tri_shading_normals.get(range).unwrap_or(&[]);
+        let what = format!(
+            "triangles of prototype `{}` of {} (object space)",
+            crate::error::one_line(&sh.name),
             scene.source.display()
         );
-        let uv = !scene.tri_uv.is_empty();
+        self.obj(&name, &what, &corners, uvs, normals)?;
+        Ok(name)
+    }
+
+    /// Write an OBJ file `name` of triangles with `corners`, and per corner
+    /// texture coordinates `uvs` and vertex normals `normals` (each empty,
+    /// or one entry per triangle; a triangle with a zero normal is flat).
+    fn obj(
+        &mut self,
+        name: &str,
+        what: &str,
+        corners: &[[Vec3; 3]],
+        uvs: &[[Vec2; 3]],
+        normals: &[[Vec3; 3]],
+    ) -> Result<()> {
+        let mut text = format!(
+            "# {} {what}, written by embertrace convert\n",
+            corners.len()
+        );
+        let uv = !uvs.is_empty();
         // flat triangles keep zero normals in the scene: a mesh of only
         // those needs no `vn` lines
         let smooth = |t: usize| {
-            !scene.tri_shading_normals.is_empty()
-                && scene.tri_shading_normals[t]
-                    .iter()
-                    .all(|n| *n != Vec3::ZERO)
+            normals
+                .get(t)
+                .is_some_and(|c| c.iter().all(|n| *n != Vec3::ZERO))
         };
-        let vn = range.clone().any(smooth);
-        for t in range.clone() {
-            for p in scene.triangle(t as u32) {
+        let vn = (0..corners.len()).any(smooth);
+        for (t, tri) in corners.iter().enumerate() {
+            for p in tri {
                 let _ = writeln!(text, "v {} {} {}", num(p.x), num(p.y), num(p.z));
             }
             if uv {
-                for c in scene.tri_uv[t] {
+                for c in uvs[t] {
                     let _ = writeln!(text, "vt {} {}", num(c.x), num(c.y));
                 }
             }
             if vn {
-                for c in scene.tri_shading_normals[t] {
+                for c in normals[t] {
                     let _ = writeln!(text, "vn {} {} {}", num(c.x), num(c.y), num(c.z));
                 }
             }
         }
-        for (j, t) in range.enumerate() {
+        for t in 0..corners.len() {
             let corner = |c: usize| {
-                let i = 3 * j + c + 1;
+                let i = 3 * t + c + 1;
                 match (uv, smooth(t)) {
                     (true, true) => format!("{i}/{i}/{i}"),
                     (true, false) => format!("{i}/{i}"),
@@ -213,10 +259,26 @@ impl Writer<'_> {
             };
             let _ = writeln!(text, "f {} {} {}", corner(0), corner(1), corner(2));
         }
-        let path = self.file(&name);
-        image::write_file_atomically(&path, text.as_bytes())?;
-        Ok(name)
+        let path = self.file(name);
+        image::write_file_atomically(&path, text.as_bytes())
     }
+}
+
+/// Runs of consecutive equal entries of `materials`: `(start..end,
+/// material)`, in order.
+fn runs(materials: &[u32]) -> Vec<(std::ops::Range<usize>, u32)> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    while start < materials.len() {
+        let mat = materials[start];
+        let mut end = start + 1;
+        while end < materials.len() && materials[end] == mat {
+            end += 1;
+        }
+        out.push((start..end, mat));
+        start = end;
+    }
+    out
 }
 
 /// The files [`convert`] writes for `scene` at `out` (in `dir`, named after
@@ -233,20 +295,21 @@ fn planned_files(scene: &Scene, out: &Path, dir: &Path, stem: &str) -> Vec<PathB
             }
         }
     };
-    let n = scene.triangle_count();
-    let (mut start, mut k) = (0, 0);
-    while start < n {
-        let mat = scene.tri_material[start];
-        let mut end = start + 1;
-        while end < n && scene.tri_material[end] == mat {
-            end += 1;
-        }
+    for (k, (_, mat)) in runs(&scene.tri_material).into_iter().enumerate() {
         files.push(dir.join(format!("{stem}-mesh-{k}.obj")));
         texture(&scene.materials[mat as usize], &mut files);
-        start = end;
-        k += 1;
     }
     for &m in &scene.sphere_material {
+        texture(&scene.materials[m as usize], &mut files);
+    }
+    let inst = &scene.instances;
+    for (p, sh) in inst.shading.iter().enumerate() {
+        for (k, (_, mat)) in runs(&sh.tri_material).into_iter().enumerate() {
+            files.push(dir.join(format!("{stem}-prototype-{p}-{k}.obj")));
+            texture(&scene.materials[mat as usize], &mut files);
+        }
+    }
+    for &m in inst.material.iter().filter(|&&m| m != NO_OVERRIDE) {
         texture(&scene.materials[m as usize], &mut files);
     }
     if scene.environment_map.is_some() {
@@ -330,16 +393,8 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
         let _ = writeln!(t, "rr = {}", num(p));
     }
     // meshes: runs of consecutive triangles with one material
-    let n = scene.triangle_count();
-    let mut start = 0;
-    let mut k = 0;
-    while start < n {
-        let mat = scene.tri_material[start];
-        let mut end = start + 1;
-        while end < n && scene.tri_material[end] == mat {
-            end += 1;
-        }
-        let file = w.mesh(scene, start..end, k)?;
+    for (k, (range, mat)) in runs(&scene.tri_material).into_iter().enumerate() {
+        let file = w.mesh(scene, range, k)?;
         let material = w.material(&scene.materials[mat as usize])?;
         let _ = write!(t, "\n[[mesh]]\nfile = \"{file}\"\nmaterial = {material}\n");
         if scene.world_origin != crate::math::DVec3::ZERO {
@@ -350,9 +405,8 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
                 world(scene, Vec3::ZERO)
             );
         }
-        start = end;
-        k += 1;
     }
+    instances(&mut w, scene, &mut t)?;
     for (s, &m) in scene.spheres.iter().zip(&scene.sphere_material) {
         let material = w.material(&scene.materials[m as usize])?;
         let _ = write!(
@@ -401,6 +455,59 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
     w.written.files.push(out.to_path_buf());
     image::write_file_atomically(out, t.as_bytes())?;
     Ok(w.written)
+}
+
+/// The prototypes (a named, `instance_only` mesh per run of one material,
+/// in object space) and their placements (an `[[instance]]` of each run,
+/// by its exact `f64` object-to-world matrix, with the material override).
+/// A prototype of one material keeps every primitive number; one of
+/// several is placed run by run, which renumbers its triangles (the same
+/// image, not the same bits).
+fn instances(w: &mut Writer, scene: &Scene, t: &mut String) -> Result<()> {
+    let inst = &scene.instances;
+    let mut names: Vec<Vec<String>> = Vec::new();
+    for (p, sh) in inst.shading.iter().enumerate() {
+        let mut runs_of = Vec::new();
+        for (k, (range, mat)) in runs(&sh.tri_material).into_iter().enumerate() {
+            let file = w.prototype(scene, p, range, k)?;
+            let material = w.material(&scene.materials[mat as usize])?;
+            let name = format!("prototype{p}-{k}");
+            let _ = write!(
+                t,
+                "\n# prototype {p}: `{}`\n[[mesh]]\nfile = \"{file}\"\nname = \"{name}\"\ninstance_only = true\nmaterial = {material}\n",
+                crate::error::one_line(&sh.name)
+            );
+            runs_of.push(name);
+        }
+        names.push(runs_of);
+    }
+    for (k, placement) in inst.placements.iter().enumerate() {
+        let m = inst.world[k];
+        let (l, c) = (m.matrix3, m.translation);
+        let rows = [
+            [l.x_axis.x, l.y_axis.x, l.z_axis.x, c.x],
+            [l.x_axis.y, l.y_axis.y, l.z_axis.y, c.y],
+            [l.x_axis.z, l.y_axis.z, l.z_axis.z, c.z],
+        ];
+        let matrix = rows
+            .iter()
+            .flatten()
+            .map(|x| format!("{x:?}"))
+            .chain(["0.0", "0.0", "0.0", "1.0"].map(String::from))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let material = match inst.material[k] {
+            NO_OVERRIDE => None,
+            m => Some(w.material(&scene.materials[m as usize])?),
+        };
+        for name in &names[placement.prototype as usize] {
+            let _ = write!(t, "\n[[instance]]\nof = \"{name}\"\nmatrix = [{matrix}]\n");
+            if let Some(material) = &material {
+                let _ = writeln!(t, "material = {material}");
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The `distribution = "..."` key.

@@ -353,8 +353,18 @@ pub fn run(args: RenderArgs) -> Result<()> {
     } else {
         ProgressBar::hidden()
     };
+    let inst = &scene.instances;
+    let instanced = if inst.is_empty() {
+        String::new()
+    } else {
+        format!(
+            ", {} more in {} instances",
+            inst.triangle_count(),
+            inst.placements.len()
+        )
+    };
     say(&format!(
-        "rendering {} ({} triangles) at {w}x{h}, {spp} spp, max depth {}, backend {backend}",
+        "rendering {} ({} triangles{instanced}) at {w}x{h}, {spp} spp, max depth {}, backend {backend}",
         args.scene.display(),
         scene.triangle_count(),
         integrator.max_depth
