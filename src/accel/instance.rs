@@ -69,6 +69,8 @@ pub struct Placement {
     pub to_object: Affine3A,
     /// The primitive id of the prototype's triangle 0 in this placement.
     pub first_prim: u32,
+    /// [`Placement::condition`], computed once.
+    pub cond: f32,
 }
 
 impl Placement {
@@ -84,12 +86,15 @@ impl Placement {
         let f32s = |a: DAffine3| Affine3A::from_cols_array(&a.to_cols_array().map(|x| x as f32));
         let (to_render, to_object) = (f32s(m), f32s(inv));
         let finite = |a: &Affine3A| a.to_cols_array().iter().all(|x| x.is_finite());
-        (finite(&to_render) && finite(&to_object)).then_some(Placement {
+        let mut p = Placement {
             prototype,
             to_render,
             to_object,
             first_prim,
-        })
+            cond: 1.0,
+        };
+        p.cond = p.condition();
+        (finite(&to_render) && finite(&to_object)).then_some(p)
     }
 
     /// `ray` in object space: origin and direction through the inverse map,
@@ -217,11 +222,7 @@ impl<A: Accelerator> InstanceSet<A> {
             pad_rate: 0.0,
         };
         if tree && !instances.is_empty() {
-            let cond = set
-                .placements
-                .iter()
-                .map(Placement::condition)
-                .fold(1.0f32, f32::max);
+            let cond = set.placements.iter().map(|p| p.cond).fold(1.0f32, f32::max);
             set.pad_rate = 64.0 * f32::EPSILON * cond;
             let object_bounds: Vec<(Vec3, Vec3)> =
                 instances.prototypes.iter().map(Prototype::bounds).collect();

@@ -123,7 +123,7 @@ impl SceneInstances {
     /// |c'|)`, the rounding of the way back, when a backend maps a ray
     /// leaving `p` into object space with `(L^-1, c')` (Embree with an
     /// inverse of its own, hence the condition number `k`, see
-    /// [`Placement::condition`]). The sum is made isotropic like every
+    /// [`Placement::condition`], kept in [`Placement::cond`]). The sum is made isotropic like every
     /// other surface point's. The normal goes through the normal matrix.
     #[inline]
     pub fn surface_point(&self, k: usize, t: u32, u: f32, v: f32) -> SurfacePoint {
@@ -147,7 +147,7 @@ impl SceneInstances {
         let ci = Vec3::from(pl.to_object.translation).abs();
         let carried = l * object.p_err;
         let forward = gamma(4) * (l * object.p.abs() + c);
-        let back = l * (gamma(8) * pl.condition() * (li * p.abs() + ci));
+        let back = l * (gamma(8) * pl.cond * (li * p.abs() + ci));
         let err = (carried + forward + back).max_element();
         let n = (self.normal_matrix[k] * object.n).normalize_or_zero();
         SurfacePoint {
