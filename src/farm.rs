@@ -168,6 +168,7 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         environment,
         environment_map,
         point_lights,
+        spot_lights,
         directional_lights,
         camera,
         // where render space sits in the world changes no pixel
@@ -203,6 +204,11 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         "{materials:?}{meshes:?}{spheres:?}{environment:?}{environment_map:?}{point_lights:?}\
          {directional_lights:?}{camera:?}{lens:?}{focal_pixels:?}{resolution:?}{render:?}"
     );
+    // written only when there are any, so that the hash of a scene
+    // without spot lights is what it was before they existed
+    if !spot_lights.is_empty() {
+        let _ = write!(h, "{spot_lights:?}");
+    }
     h.finish()
 }
 

@@ -101,7 +101,7 @@ impl Kernel {
 
 /// The effect names, in the order `plan` lists them. These names are fixed:
 /// scripts read them from `plan --json` and from the render report.
-pub const EFFECTS: [&str; 16] = [
+pub const EFFECTS: [&str; 18] = [
     "diffuse",
     "mirror",
     "glass",
@@ -120,6 +120,10 @@ pub const EFFECTS: [&str; 16] = [
     // appended (not grouped with the materials) so that the positions of
     // the earlier names in `plan --json` stay as they were
     "phong",
+    // this names, appended in their fixed order (`instancing`
+    // comes before them on the branch that adds it)
+    "many_lights",
+    "spot_light",
 ];
 
 /// Which kernel to run (`--plan`).
@@ -369,6 +373,20 @@ impl Plan {
             "phong materials",
             "Lambertian plus a Phong or GGX-Schlick lobe, mixture sampling (bsdf/phong.rs)",
         );
+        add(
+            "many_lights",
+            Vec::new(),
+            "light BVH (lights are chosen in proportion to their power)",
+            "light BVH traversal by importance (integrator/light_bvh.rs)",
+        );
+        add(
+            "spot_light",
+            (0..scene.spot_lights.len())
+                .map(|i| format!("spot light {i}"))
+                .collect(),
+            "spot lights",
+            "delta light samples with Mitsuba's falloff, MIS weight 1 (light/spot.rs)",
+        );
         let on = |n: &str| effects.iter().any(|e| e.name == n && e.on);
         let kernel = Kernel {
             materials: [
@@ -381,7 +399,10 @@ impl Plan {
             ]
             .iter()
             .any(|n| on(n)),
-            delta: !delta_bsdfs.is_empty() || on("point_light") || on("directional_light"),
+            delta: !delta_bsdfs.is_empty()
+                || on("point_light")
+                || on("spot_light")
+                || on("directional_light"),
             environment: on("environment") || on("environment_map"),
             emitters: on("area_light"),
             shapes: on("sphere") || on("smooth_normals"),

@@ -163,6 +163,12 @@ f 1/1/1 2/2/2 3/3/3\nf 1/1/1 3/3/3 4/4/4\n";
             ),
         ),
         (
+            "spot light",
+            format!(
+                "{room}[[light]]\ntype = \"spot\"\nposition = [0.2, 1.7, 0.3]\ntarget = [0.0, 0.0, 0.0]\nintensity = [2.0, 1.5, 1.0]\ncutoff_angle = 40.0\nbeam_width = 10.0\n"
+            ),
+        ),
+        (
             "directional light",
             "[[mesh]]\nfile = \"quad.obj\"\n[[light]]\ntype = \"directional\"\ndirection = [0.3, -0.4, -1.0]\nirradiance = 2.0\n".to_string(),
         ),

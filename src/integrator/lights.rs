@@ -1,6 +1,6 @@
 //! The lights of one scene as the estimator samples them (pbrt-v4's
 //! `PowerLightSampler`, section 12.6.3): the emissive triangles, quads and
-//! spheres gathered from the scene as area lights, then the point and
+//! spheres gathered from the scene as area lights, then the point, spot and
 //! directional lights, the uniform environment and the environment map, one
 //! chosen in proportion to its power with an alias table, and a point on it
 //! by the rules of [`crate::light`]. It reads the scene (its emitting
@@ -8,7 +8,7 @@
 //! of the scene, not with the light sources the scene holds.
 
 use crate::light::{
-    AreaLight, DirectionalLight, Emitter, EnvironmentMap, LightSample, PointLight, Quad,
+    AreaLight, DirectionalLight, Emitter, EnvironmentMap, LightSample, PointLight, Quad, SpotLight,
     sphere_cone,
 };
 use crate::math::{SurfacePoint, Vec2, Vec3, luminance_f64, spawn_ray, spawn_ray_to};
@@ -20,14 +20,15 @@ use std::f64::consts::PI as PI_F64;
 
 /// All lights of a scene with the power-proportional selection distribution.
 ///
-/// Selection items, in order: the area lights, the point lights, the
-/// directional lights, the uniform environment, the environment map.
+/// Selection items, in order: the area lights, the point lights, the spot
+/// lights, the directional lights, the uniform environment, the environment map.
 #[derive(Debug, Clone)]
 pub struct Lights {
     area: Vec<AreaLight>,
     /// For each primitive, its index in `area`, or `u32::MAX`.
     light_of_prim: Vec<u32>,
     points: Vec<PointLight>,
+    spots: Vec<SpotLight>,
     directionals: Vec<DirectionalLight>,
     environment: Option<Vec3>,
     environment_map: Option<EnvironmentMap>,
@@ -125,6 +126,7 @@ impl Lights {
             (0.5 * (b.max - b.min).length()).max(1e-3)
         };
         weights.extend(scene.point_lights.iter().map(|l| l.power()));
+        weights.extend(scene.spot_lights.iter().map(|l| l.power()));
         weights.extend(scene.directional_lights.iter().map(|l| l.power(r)));
         if let Some(env) = scene.environment {
             let r = r as f64;
@@ -137,6 +139,7 @@ impl Lights {
             area,
             light_of_prim,
             points: scene.point_lights.clone(),
+            spots: scene.spot_lights.clone(),
             directionals: scene.directional_lights.clone(),
             environment: scene.environment,
             environment_map: scene.environment_map.clone(),
@@ -154,9 +157,10 @@ impl Lights {
         self.select.is_empty()
     }
 
-    /// Whether some light has a delta distribution (point, directional).
+    /// Whether some light has a delta distribution (point, spot,
+    /// directional).
     pub fn has_delta(&self) -> bool {
-        !self.points.is_empty() || !self.directionals.is_empty()
+        !self.points.is_empty() || !self.spots.is_empty() || !self.directionals.is_empty()
     }
 
     /// Whether an escaping ray sees any radiance.
@@ -166,7 +170,7 @@ impl Lights {
 
     /// Selection index of the uniform environment.
     fn environment_index(&self) -> usize {
-        self.area.len() + self.points.len() + self.directionals.len()
+        self.area.len() + self.points.len() + self.spots.len() + self.directionals.len()
     }
 
     /// Selection index of the environment map.
@@ -209,10 +213,13 @@ impl Lights {
             return self.sample_area(scene, &self.area[i], chosen.pmf, from, u);
         }
         i -= self.area.len();
-        let delta = if i < self.points.len() {
+        let (n_points, n_spots) = (self.points.len(), self.spots.len());
+        let delta = if i < n_points {
             self.points[i].sample_li(from)?
-        } else if i < self.points.len() + self.directionals.len() {
-            self.directionals[i - self.points.len()].sample_li(from)
+        } else if i < n_points + n_spots {
+            self.spots[i - n_points].sample_li(from)?
+        } else if i < n_points + n_spots + self.directionals.len() {
+            self.directionals[i - n_points - n_spots].sample_li(from)
         } else if chosen.index == self.environment_index() && self.environment.is_some() {
             let wi = square_to_uniform_sphere(u);
             return Some(LightSample {
