@@ -9,7 +9,10 @@ same XML files against them, block by block.
     pip install mitsuba numpy
     # faster: apt-get install libllvm19 and
     # DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1
-    python3 tests/data/mitsuba/make_references.py [SPP_PER_PASS]
+    python3 tests/data/mitsuba/make_references.py [SPP_PER_PASS [SCENE...]]
+
+With scene names, only those are rendered again (their entries in
+references.json replaced, the others kept).
 
 The scenes themselves are hand-written; this script only reads them.
 """
@@ -23,7 +26,7 @@ import mitsuba as mi
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-SCENES = ["cbox", "lights", "envmap"]
+SCENES = ["cbox", "lights", "envmap", "spot"]
 PASSES = 8
 SPP = int(sys.argv[1]) if len(sys.argv) > 1 else 4096
 
@@ -126,10 +129,15 @@ if __name__ == "__main__":
     floor_ply()
     sky_exr()
     checker_png()
+    only = sys.argv[2:] or SCENES
     info = {"generator": "tests/data/mitsuba/make_references.py",
             "mitsuba_version": mi.__version__, "variant": mi.variant(),
             "passes": PASSES, "spp_per_pass": SPP, "mean": {}}
-    for s in SCENES:
+    old = os.path.join(HERE, "references.json")
+    if sys.argv[2:] and os.path.exists(old):
+        with open(old) as f:
+            info["mean"] = json.load(f)["mean"]
+    for s in only:
         info["mean"][s] = render(s)
         print(s, info["mean"][s], flush=True)
     with open(os.path.join(HERE, "references.json"), "w") as out:
