@@ -12,7 +12,7 @@
 //! - each texture and the environment map as a linear OpenEXR file
 //!   (`STEM-texture-K.exr`, `STEM-environment.exr`) holding the texels the
 //!   renderer uses, decoded already (an sRGB PNG becomes its linear values);
-//! - spheres, point, directional and environment lights, camera and lens,
+//! - spheres, point, spot, directional and environment lights, camera and lens,
 //!   film and render defaults as TOML keys.
 //!
 //! Nothing is written if any of these files would overwrite one the scene
@@ -372,6 +372,17 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
         if p.attenuation != crate::light::point::PHYSICAL {
             let _ = writeln!(t, "attenuation = {}", rgb(Vec3::from(p.attenuation)));
         }
+    }
+    for l in &scene.spot_lights {
+        let _ = write!(
+            t,
+            "\n[[light]]\ntype = \"spot\"\nposition = {}\ndirection = {}\nintensity = {}\ncutoff_angle = {}\nbeam_width = {}\n",
+            world(scene, l.position),
+            rgb(l.direction()),
+            rgb(l.intensity),
+            num(l.cutoff_angle()),
+            num(l.beam_width())
+        );
     }
     for d in &scene.directional_lights {
         let _ = write!(
