@@ -17,7 +17,7 @@
 
 use crate::bsdf::Bxdf;
 use crate::scene::Scene;
-use crate::settings::IntegratorSettings;
+use crate::settings::{IntegratorSettings, LIGHT_BVH_FROM, LightSampler};
 use std::fmt::Write;
 use std::str::FromStr;
 
@@ -170,6 +170,17 @@ pub struct Plan {
     pub effects: Vec<Effect>,
     /// The specialised kernel's flags.
     pub kernel: Kernel,
+}
+
+/// The lights of `scene` that are not at infinity: emissive primitives
+/// (each triangle of an emissive quad counts), point and spot lights. What
+/// `--light-sampler auto` counts ([`crate::settings::LightSampler`]).
+pub fn finite_light_count(scene: &Scene) -> usize {
+    (0..scene.primitive_count() as u32)
+        .filter(|&p| scene.material(p).emission.max_element() > 0.0)
+        .count()
+        + scene.point_lights.len()
+        + scene.spot_lights.len()
 }
 
 /// Up to three names, then how many more.
@@ -373,11 +384,12 @@ impl Plan {
             "phong materials",
             "Lambertian plus a Phong or GGX-Schlick lobe, mixture sampling (bsdf/phong.rs)",
         );
+        // its `on` and `because` are set below, once `add` is done
         add(
             "many_lights",
             Vec::new(),
-            "light BVH (lights are chosen in proportion to their power)",
-            "light BVH traversal by importance (integrator/light_bvh.rs)",
+            "light BVH",
+            "light BVH traversal by importance, pmf by bit trail (integrator/light_bvh.rs)",
         );
         add(
             "spot_light",
@@ -387,6 +399,21 @@ impl Plan {
             "spot lights",
             "delta light samples with Mitsuba's falloff, MIS weight 1 (light/spot.rs)",
         );
+        let finite_lights = finite_light_count(scene);
+        let bvh = settings.light_sampler.picks_bvh(finite_lights);
+        if let Some(e) = effects.iter_mut().find(|e| e.name == "many_lights") {
+            e.on = bvh;
+            e.because = match (bvh, settings.light_sampler) {
+                (true, LightSampler::Auto) => format!(
+                    "light BVH: {finite_lights} lights, at least {LIGHT_BVH_FROM} (--light-sampler auto)"
+                ),
+                (true, _) => format!("light BVH: --light-sampler bvh ({finite_lights} lights)"),
+                (false, LightSampler::Auto) => format!(
+                    "no light BVH: {finite_lights} lights, under {LIGHT_BVH_FROM}: chosen by power (--light-sampler auto)"
+                ),
+                (false, _) => "no light BVH: --light-sampler power".to_string(),
+            };
+        }
         let on = |n: &str| effects.iter().any(|e| e.name == n && e.on);
         let kernel = Kernel {
             materials: [

@@ -69,6 +69,7 @@ fn a_diffuse_floor_reflects_the_closed_form_under_a_spot() {
                 direct,
                 roulette: Roulette::Fixed(1.0),
                 rr_depth: 1,
+                ..IntegratorSettings::default()
             };
             let t = PathTracer::new(&scene, acc.as_ref(), settings);
             // angles off the axis: on it, inside the beam, in the band,
