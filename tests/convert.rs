@@ -84,7 +84,12 @@ fn round_trip(path: &Path) {
 
 #[test]
 fn bundled_scenes_round_trip_to_the_same_bits() {
-    for name in ["cornell-box.toml", "cornell-spheres.toml", "materials.toml"] {
+    for name in [
+        "cornell-box.toml",
+        "cornell-spheres.toml",
+        "materials.toml",
+        "many-lights.toml",
+    ] {
         round_trip(
             &Path::new(env!("CARGO_MANIFEST_DIR"))
                 .join("scenes")

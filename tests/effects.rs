@@ -91,7 +91,12 @@ fn assert_same_bits(what: &str, scene: &Scene, backend: Backend, res: [u32; 2], 
 
 #[test]
 fn general_kernel_gives_the_same_bits_on_every_bundled_scene_and_backend() {
-    for name in ["cornell-box.toml", "cornell-spheres.toml", "materials.toml"] {
+    for name in [
+        "cornell-box.toml",
+        "cornell-spheres.toml",
+        "materials.toml",
+        "many-lights.toml",
+    ] {
         let scene = Scene::load(&bundled(name)).unwrap();
         for backend in Backend::available() {
             assert_same_bits(name, &scene, backend, [24, 16], 2);
