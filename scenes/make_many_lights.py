@@ -6,14 +6,22 @@ and a few grey boxes standing on the floor. scenes/many-lights.toml places
 it. The triangles are grouped by material, so that `convert` writes one
 mesh per material. Deterministic: a fixed seed.
 
-    python3 scenes/make_many_lights.py
+    python3 scenes/make_many_lights.py [NX NZ DIR]
+
+With arguments, a grid of NX x NZ lights (the same floor, boxes and
+powers) goes to DIR/many-lights.obj and .mtl instead: the scenes the
+light sampler's `auto` threshold was measured on (README, "Many lights").
 """
 import math
 import os
 import random
 
+import sys
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 NX, NZ = 32, 64
+if len(sys.argv) == 4:
+    NX, NZ, HERE = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
 SIZE = 0.12
 rng = random.Random(2018)
 

@@ -22,7 +22,8 @@ pub struct StudyArgs {
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// A setting and its values, NAME=V1,V2,...; repeat to combine. Names:
-    /// spp, max_depth, light_samples, direct, rr, rr_depth, backend, sampler.
+    /// spp, max_depth, light_samples, direct, rr, rr_depth, backend, sampler,
+    /// light_sampler.
     #[arg(long, value_name = "NAME=V1,V2,...")]
     vary: Vec<String>,
     /// Reference image (.exr or .pfm), or `auto` to render (and cache in DIR)
