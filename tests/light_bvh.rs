@@ -237,7 +237,7 @@ fn the_same_seed_gives_the_same_bits_for_any_thread_count() {
 fn auto_picks_the_bvh_from_the_threshold_and_power_below_it() {
     let scene = many_light_scene();
     // 24 triangles, 2 spheres, a point and a spot: under the threshold
-    assert!(28 < LIGHT_BVH_FROM);
+    const { assert!(28 < LIGHT_BVH_FROM) };
     let plan = Plan::new(&scene, &IntegratorSettings::default());
     assert!(!plan.on().contains(&"many_lights"));
     assert!(!Lights::with_sampler(&scene, LightSampler::Auto).uses_bvh());
