@@ -169,6 +169,7 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         environment,
         environment_map,
         point_lights,
+        spot_lights,
         directional_lights,
         camera,
         // where render space sits in the world changes no pixel
@@ -204,6 +205,11 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         "{materials:?}{meshes:?}{spheres:?}{environment:?}{environment_map:?}{point_lights:?}\
          {directional_lights:?}{camera:?}{lens:?}{focal_pixels:?}{resolution:?}{render:?}"
     );
+    // written only when there are any, so that the hash of a scene
+    // without spot lights is what it was before they existed
+    if !spot_lights.is_empty() {
+        let _ = write!(h, "{spot_lights:?}");
+    }
     // instances: the prototypes' bits, then each placement's (the shading
     // data follows from the geometry and the materials above); nothing for
     // a scene without, whose hash stays what it was

@@ -17,7 +17,7 @@
 
 use crate::bsdf::Bxdf;
 use crate::scene::Scene;
-use crate::settings::IntegratorSettings;
+use crate::settings::{IntegratorSettings, LIGHT_BVH_FROM, LightSampler};
 use std::fmt::Write;
 use std::str::FromStr;
 
@@ -102,7 +102,7 @@ impl Kernel {
 
 /// The effect names, in the order `plan` lists them. These names are fixed:
 /// scripts read them from `plan --json` and from the render report.
-pub const EFFECTS: [&str; 17] = [
+pub const EFFECTS: [&str; 19] = [
     "diffuse",
     "mirror",
     "glass",
@@ -121,7 +121,10 @@ pub const EFFECTS: [&str; 17] = [
     // appended (not grouped with the materials) so that the positions of
     // the earlier names in `plan --json` stay as they were
     "phong",
+    // the production-scene names, appended in their fixed order
     "instancing",
+    "many_lights",
+    "spot_light",
 ];
 
 /// Which kernel to run (`--plan`).
@@ -168,6 +171,17 @@ pub struct Plan {
     pub effects: Vec<Effect>,
     /// The specialised kernel's flags.
     pub kernel: Kernel,
+}
+
+/// The lights of `scene` that are not at infinity: emissive primitives
+/// (each triangle of an emissive quad counts), point and spot lights. What
+/// `--light-sampler auto` counts ([`crate::settings::LightSampler`]).
+pub fn finite_light_count(scene: &Scene) -> usize {
+    (0..scene.primitive_count() as u32)
+        .filter(|&p| scene.material(p).emission.max_element() > 0.0)
+        .count()
+        + scene.point_lights.len()
+        + scene.spot_lights.len()
 }
 
 /// Up to three names, then how many more.
@@ -392,6 +406,36 @@ impl Plan {
             "instances",
             "two-level queries (object-space rays per placement), instance lookup and transform of hit points (scene/instances.rs, accel/instance.rs)",
         );
+        // its `on` and `because` are set below, once `add` is done
+        add(
+            "many_lights",
+            Vec::new(),
+            "light BVH",
+            "light BVH traversal by importance, pmf by bit trail (integrator/light_bvh.rs)",
+        );
+        add(
+            "spot_light",
+            (0..scene.spot_lights.len())
+                .map(|i| format!("spot light {i}"))
+                .collect(),
+            "spot lights",
+            "delta light samples with Mitsuba's falloff, MIS weight 1 (light/spot.rs)",
+        );
+        let finite_lights = finite_light_count(scene);
+        let bvh = settings.light_sampler.picks_bvh(finite_lights);
+        if let Some(e) = effects.iter_mut().find(|e| e.name == "many_lights") {
+            e.on = bvh;
+            e.because = match (bvh, settings.light_sampler) {
+                (true, LightSampler::Auto) => format!(
+                    "light BVH: {finite_lights} lights, at least {LIGHT_BVH_FROM} (--light-sampler auto)"
+                ),
+                (true, _) => format!("light BVH: --light-sampler bvh ({finite_lights} lights)"),
+                (false, LightSampler::Auto) => format!(
+                    "no light BVH: {finite_lights} lights, under {LIGHT_BVH_FROM}: chosen by power (--light-sampler auto)"
+                ),
+                (false, _) => "no light BVH: --light-sampler power".to_string(),
+            };
+        }
         let on = |n: &str| effects.iter().any(|e| e.name == n && e.on);
         let kernel = Kernel {
             materials: [
@@ -404,7 +448,10 @@ impl Plan {
             ]
             .iter()
             .any(|n| on(n)),
-            delta: !delta_bsdfs.is_empty() || on("point_light") || on("directional_light"),
+            delta: !delta_bsdfs.is_empty()
+                || on("point_light")
+                || on("spot_light")
+                || on("directional_light"),
             environment: on("environment") || on("environment_map"),
             emitters: on("area_light"),
             shapes: on("sphere") || on("smooth_normals") || on("instancing"),

@@ -64,6 +64,63 @@ pub enum Roulette {
     Fixed(f32),
 }
 
+/// How the estimator chooses a light (`--light-sampler`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LightSampler {
+    /// The light BVH when the scene has at least [`LIGHT_BVH_FROM`] lights
+    /// that are not at infinity, else power.
+    #[default]
+    Auto,
+    /// In proportion to each light's power, with an alias table.
+    Power,
+    /// By a light BVH, in proportion to each light's importance at the
+    /// shading point (`src/integrator/light_bvh.rs`).
+    Bvh,
+}
+
+/// The number of lights (emissive triangles and spheres, point and spot
+/// lights) from which `auto` picks the light BVH. Measured on
+/// `scenes/many-lights.py`'s grid of small emissive quads over a floor
+/// (README, "Many lights"): the BVH's error at equal time is the lower
+/// from about this many lights on.
+pub const LIGHT_BVH_FROM: usize = 64;
+
+impl LightSampler {
+    /// Whether a scene with `lights` lights (not at infinity) is sampled by
+    /// the light BVH.
+    pub fn picks_bvh(self, lights: usize) -> bool {
+        match self {
+            LightSampler::Auto => lights >= LIGHT_BVH_FROM,
+            LightSampler::Power => false,
+            LightSampler::Bvh => true,
+        }
+    }
+}
+
+impl FromStr for LightSampler {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "auto" => Ok(LightSampler::Auto),
+            "power" => Ok(LightSampler::Power),
+            "bvh" => Ok(LightSampler::Bvh),
+            _ => Err(format!(
+                "unknown light sampler `{s}` (expected auto, power or bvh)"
+            )),
+        }
+    }
+}
+
+impl fmt::Display for LightSampler {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            LightSampler::Auto => "auto",
+            LightSampler::Power => "power",
+            LightSampler::Bvh => "bvh",
+        })
+    }
+}
+
 /// Estimator settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IntegratorSettings {
@@ -77,6 +134,8 @@ pub struct IntegratorSettings {
     pub roulette: Roulette,
     /// First bounce at which roulette may end a path.
     pub rr_depth: u32,
+    /// How a light is chosen.
+    pub light_sampler: LightSampler,
 }
 
 impl Default for IntegratorSettings {
@@ -87,6 +146,7 @@ impl Default for IntegratorSettings {
             direct: DirectStrategy::Mis,
             roulette: Roulette::Throughput,
             rr_depth: 3,
+            light_sampler: LightSampler::Auto,
         }
     }
 }
@@ -186,6 +246,8 @@ pub struct Flags {
     pub rr: Option<f32>,
     /// First bounce at which roulette may end a path (`--rr-depth`).
     pub rr_depth: Option<u32>,
+    /// How lights are chosen (`--light-sampler`) [auto].
+    pub light_sampler: Option<LightSampler>,
     /// Render threads (`-t`; 0 = one per core).
     pub threads: usize,
     /// Tile side (`--tile-size`) [`DEFAULT_TILE_SIZE`].
@@ -207,6 +269,7 @@ impl Default for Flags {
             direct: None,
             rr: None,
             rr_depth: None,
+            light_sampler: None,
             threads: 0,
             tile_size: None,
             spp_flag: "-s",
@@ -280,6 +343,7 @@ pub fn resolve(defaults: &RenderDefaults, resolution: [u32; 2], flags: &Flags) -
             direct: flags.direct.unwrap_or(defaults.direct),
             roulette: flags.rr.map_or(defaults.roulette, Roulette::Fixed),
             rr_depth: flags.rr_depth.unwrap_or(defaults.rr_depth),
+            light_sampler: flags.light_sampler.unwrap_or_default(),
         },
         spp,
         resolution: [w, h],

@@ -24,6 +24,7 @@ fn tracer_settings(
         direct,
         roulette,
         rr_depth: 1,
+        ..IntegratorSettings::default()
     }
 }
 

@@ -1,5 +1,5 @@
 //! `embertrace convert`: a converted scene renders to the same image bits as
-//! the original (bundled scenes, and one with point, directional and
+//! the original (bundled scenes, and one with point, spot, directional and
 //! environment lights, a lens, textures and an emissive sphere); and bad
 //! output paths are refused before anything is written.
 
@@ -76,6 +76,7 @@ fn round_trip(path: &Path) {
         "{}: placements moved",
         path.display()
     );
+    assert_eq!(again.spot_lights, scene.spot_lights);
     assert_eq!(again.camera, scene.camera);
     // a pinhole's focus distance means nothing
     if scene.lens.is_pinhole() {
@@ -108,6 +109,7 @@ fn bundled_scenes_round_trip_to_the_same_bits() {
         "cornell-spheres.toml",
         "materials.toml",
         "instances.toml",
+        "many-lights.toml",
     ] {
         round_trip(
             &Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -194,6 +196,18 @@ type = "directional"
 direction = [0.0, -1.0, 0.0]
 irradiance = 0.7
 [[light]]
+type = "spot"
+position = [0.2, 1.6, 0.4]
+target = [0.1, 0.0, -0.2]
+intensity = [4.0, 3.0, 2.0]
+cutoff_angle = 35.0
+beam_width = 12.5
+[[light]]
+type = "spot"
+position = [-0.7, 1.1, 0.3]
+direction = [0.3, -1.0, 0.1]
+intensity = 2.5
+[[light]]
 type = "environment"
 radiance = 0.1
 [[light]]
@@ -225,7 +239,13 @@ fn the_output_must_be_toml_in_an_existing_folder() {
 #[test]
 fn mitsuba_and_ply_scenes_round_trip_to_the_same_bits() {
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mitsuba");
-    for name in ["cbox.xml", "lights.xml", "envmap.xml", "floor.ply"] {
+    for name in [
+        "cbox.xml",
+        "lights.xml",
+        "envmap.xml",
+        "spot.xml",
+        "floor.ply",
+    ] {
         round_trip(&data.join(name));
     }
 }

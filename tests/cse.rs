@@ -32,6 +32,7 @@ fn image(scene: &Scene, res: [u32; 2], spp: u32) -> Vec<Vec3> {
         direct: r.direct,
         roulette: r.roulette,
         rr_depth: r.rr_depth,
+        ..IntegratorSettings::default()
     };
     let tracer = PathTracer::new(scene, acc.as_ref(), settings);
     let rs = RenderSettings {

@@ -91,7 +91,12 @@ fn assert_same_bits(what: &str, scene: &Scene, backend: Backend, res: [u32; 2], 
 
 #[test]
 fn general_kernel_gives_the_same_bits_on_every_bundled_scene_and_backend() {
-    for name in ["cornell-box.toml", "cornell-spheres.toml", "materials.toml"] {
+    for name in [
+        "cornell-box.toml",
+        "cornell-spheres.toml",
+        "materials.toml",
+        "many-lights.toml",
+    ] {
         let scene = Scene::load(&bundled(name)).unwrap();
         for backend in Backend::available() {
             assert_same_bits(name, &scene, backend, [24, 16], 2);
@@ -163,6 +168,12 @@ f 1/1/1 2/2/2 3/3/3\nf 1/1/1 3/3/3 4/4/4\n";
             "point light",
             format!(
                 "{room}[[light]]\ntype = \"point\"\nposition = [0.2, 1.5, 0.3]\nintensity = [2.0, 1.5, 1.0]\n"
+            ),
+        ),
+        (
+            "spot light",
+            format!(
+                "{room}[[light]]\ntype = \"spot\"\nposition = [0.2, 1.7, 0.3]\ntarget = [0.0, 0.0, 0.0]\nintensity = [2.0, 1.5, 1.0]\ncutoff_angle = 40.0\nbeam_width = 10.0\n"
             ),
         ),
         (

@@ -51,11 +51,12 @@ const SYSTEMATIC: f64 = 2e-3;
 /// 1 % bias the test must see, the other half left to the noise.
 const MAX_RELATIVE_BAND: f64 = 0.005;
 /// The scenes and their block counts ((w / 8) x (h / 8)).
-const SCENES: [(&str, usize); 4] = [
+const SCENES: [(&str, usize); 5] = [
     ("cbox", 30),
     ("lights", 35),
     ("envmap", 30),
     ("instances", 30),
+    ("spot", 64),
 ];
 
 fn data(name: &str) -> PathBuf {
@@ -254,7 +255,22 @@ fn errors_name_the_file_line_and_element() {
             ":2:",
             "uniformly",
         ),
-        ("<emitter type=\"spot\"/>", ":2:", "spot"),
+        ("<emitter type=\"projector\"/>", ":2:", "projector"),
+        (
+            "<emitter type=\"spot\">\n<texture name=\"texture\" type=\"bitmap\"/>\n</emitter>",
+            ":3:",
+            "texture",
+        ),
+        (
+            "<emitter type=\"spot\">\n<float name=\"cutoff_angle\" value=\"10\"/>\n<float name=\"beam_width\" value=\"12\"/>\n</emitter>",
+            ":2:",
+            "beam_width",
+        ),
+        (
+            "<emitter type=\"spot\">\n<transform name=\"to_world\">\n<scale x=\"1\" y=\"2\"/>\n</transform>\n</emitter>",
+            ":2:",
+            "rotation",
+        ),
         (
             "<bsdf type=\"conductor\" id=\"au\">\n<string name=\"material\" value=\"Au\"/>\n</bsdf>\n<shape type=\"cube\"><ref id=\"au\"/></shape>",
             ":2:",

@@ -18,6 +18,7 @@ fn build(b: Backend, p: &[Vec3], i: &[[u32; 3]], s: &[Sphere]) -> Box<dyn Accele
         positions: p,
         indices: i,
         spheres: s,
+        instances: Default::default(),
     };
     accel::build(b, soup, AccelOptions::default()).unwrap()
 }

@@ -126,6 +126,18 @@ def scene_dict(toml_path, width, height, sampler="independent", spp=16):
         elif kind == "point":
             d[f"light{i}"] = {"type": "point", "position": light["position"],
                               "intensity": _rgb(light["intensity"])}
+        elif kind == "spot":
+            o = light["position"]
+            t = light.get("target") or [a + b for a, b in zip(o, light["direction"])]
+            axis = [b - a for a, b in zip(o, t)]
+            # any up not along the axis: the cone is round about it
+            up = [1, 0, 0] if abs(axis[0]) < 0.9 * max(abs(x) for x in axis) else [0, 1, 0]
+            cutoff = float(light.get("cutoff_angle", 20.0))
+            d[f"light{i}"] = {"type": "spot",
+                              "to_world": mi.ScalarTransform4f().look_at(origin=o, target=t, up=up),
+                              "intensity": _rgb(light["intensity"]),
+                              "cutoff_angle": cutoff,
+                              "beam_width": float(light.get("beam_width", 0.75 * cutoff))}
         elif kind == "directional":
             d[f"light{i}"] = {"type": "directional", "direction": light["direction"],
                               "irradiance": _rgb(light["irradiance"])}

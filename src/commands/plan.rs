@@ -4,7 +4,7 @@
 use crate::error::Result;
 use crate::plan::Plan;
 use crate::scene::Scene;
-use crate::settings::{self, Flags};
+use crate::settings::{self, Flags, LightSampler};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -16,6 +16,11 @@ pub struct PlanArgs {
     /// Maximum bounces (decides `indirect`) [scene default].
     #[arg(short = 'm', long = "max-depth", allow_negative_numbers = true)]
     max_depth: Option<u32>,
+    /// Light selection: auto (the light BVH from 64 lights that are not at
+    /// infinity, else power), power (in proportion to power) or bvh (by a
+    /// light BVH, by importance at the shading point) [default: auto].
+    #[arg(long = "light-sampler", value_name = "auto|power|bvh")]
+    light_sampler: Option<LightSampler>,
     /// Print JSON: `effects` (the names that are on), `kernel`, `details`.
     #[arg(long)]
     json: bool,
@@ -26,6 +31,7 @@ pub fn run(args: PlanArgs) -> Result<()> {
     let scene = Scene::load(&args.scene)?;
     let flags = Flags {
         max_depth: args.max_depth,
+        light_sampler: args.light_sampler,
         ..Flags::default()
     };
     let settings = settings::resolve(&scene.render, scene.resolution, &flags)?;

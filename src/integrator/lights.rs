@@ -1,14 +1,17 @@
 //! The lights of one scene as the estimator samples them (pbrt-v4's
 //! `PowerLightSampler`, section 12.6.3): the emissive triangles, quads and
-//! spheres gathered from the scene as area lights, then the point and
+//! spheres gathered from the scene as area lights, then the point, spot and
 //! directional lights, the uniform environment and the environment map, one
 //! chosen in proportion to its power with an alias table, and a point on it
-//! by the rules of [`crate::light`]. It reads the scene (its emitting
+//! by the rules of [`crate::light`]; or, for scenes of many lights, one
+//! chosen by the light BVH of [`super::light_bvh`] in proportion to its
+//! importance at the shading point ([`crate::settings::LightSampler`]).
+//! It reads the scene (its emitting
 //! primitives and their surface points), so it lives on the estimator's side
 //! of the scene, not with the light sources the scene holds.
 
 use crate::light::{
-    AreaLight, DirectionalLight, Emitter, EnvironmentMap, LightSample, PointLight, Quad,
+    AreaLight, DirectionalLight, Emitter, EnvironmentMap, LightSample, PointLight, Quad, SpotLight,
     sphere_cone,
 };
 use crate::math::{SurfacePoint, Vec2, Vec3, luminance_f64, spawn_ray, spawn_ray_to};
@@ -16,12 +19,15 @@ use crate::sampling::{
     Discrete, square_to_uniform_sphere, square_to_uniform_sphere_pdf, square_to_uniform_triangle,
 };
 use crate::scene::Scene;
+use crate::settings::LightSampler;
 use std::f64::consts::PI as PI_F64;
+
+use super::light_bvh::{LightBounds, LightBvh};
 
 /// All lights of a scene with the power-proportional selection distribution.
 ///
-/// Selection items, in order: the area lights, the point lights, the
-/// directional lights, the uniform environment, the environment map.
+/// Selection items, in order: the area lights, the point lights, the spot
+/// lights, the directional lights, the uniform environment, the environment map.
 #[derive(Debug, Clone)]
 pub struct Lights {
     area: Vec<AreaLight>,
@@ -33,10 +39,13 @@ pub struct Lights {
     /// grow with the placements times the mesh).
     instanced_lights: Vec<(u32, u32)>,
     points: Vec<PointLight>,
+    spots: Vec<SpotLight>,
     directionals: Vec<DirectionalLight>,
     environment: Option<Vec3>,
     environment_map: Option<EnvironmentMap>,
     select: Discrete,
+    /// The light BVH, when the lights are chosen by it instead of `select`.
+    bvh: Option<LightBvh>,
 }
 
 const NO_LIGHT: u32 = u32::MAX;
@@ -65,8 +74,14 @@ fn selection_weights(powers: &[f64]) -> Vec<f32> {
 }
 
 impl Lights {
-    /// Collect the lights of `scene`.
+    /// Collect the lights of `scene`, chosen as `--light-sampler auto`
+    /// would.
     pub fn new(scene: &Scene) -> Self {
+        Self::with_sampler(scene, LightSampler::Auto)
+    }
+
+    /// Collect the lights of `scene`, to be chosen by `sampler`.
+    pub fn with_sampler(scene: &Scene, sampler: LightSampler) -> Self {
         let mut area = Vec::new();
         let placed = scene.triangle_count() + scene.spheres.len();
         let mut light_of_prim = vec![NO_LIGHT; placed];
@@ -156,6 +171,7 @@ impl Lights {
             (0.5 * (b.max - b.min).length()).max(1e-3)
         };
         weights.extend(scene.point_lights.iter().map(|l| l.power()));
+        weights.extend(scene.spot_lights.iter().map(|l| l.power()));
         weights.extend(scene.directional_lights.iter().map(|l| l.power(r)));
         if let Some(env) = scene.environment {
             let r = r as f64;
@@ -164,11 +180,16 @@ impl Lights {
         if let Some(map) = &scene.environment_map {
             weights.push(map.power(r));
         }
+        let bvh = sampler
+            .picks_bvh(crate::plan::finite_light_count(scene))
+            .then(|| build_bvh(scene, &area, &weights));
         Lights {
             area,
             light_of_prim,
             instanced_lights,
+            bvh,
             points: scene.point_lights.clone(),
+            spots: scene.spot_lights.clone(),
             directionals: scene.directional_lights.clone(),
             environment: scene.environment,
             environment_map: scene.environment_map.clone(),
@@ -183,12 +204,63 @@ impl Lights {
 
     /// Whether there is nothing to sample.
     pub fn is_empty(&self) -> bool {
-        self.select.is_empty()
+        match &self.bvh {
+            Some(b) => b.is_empty(),
+            None => self.select.is_empty(),
+        }
     }
 
-    /// Whether some light has a delta distribution (point, directional).
+    /// Whether lights are chosen by the light BVH.
+    pub fn uses_bvh(&self) -> bool {
+        self.bvh.is_some()
+    }
+
+    /// Probability of choosing the light with selection index `i` from
+    /// `from` (the point and normal light sampling looks from).
+    #[inline]
+    fn pmf(&self, from: &SurfacePoint, i: usize) -> f32 {
+        match &self.bvh {
+            Some(b) => b.pmf(from.p, from.n, i),
+            None => self.select.pmf(i),
+        }
+    }
+
+    /// Probability of choosing the light at infinity with selection index
+    /// `i` (the same from every point).
+    #[inline]
+    fn pmf_infinite(&self, i: usize) -> f32 {
+        match &self.bvh {
+            Some(b) => b.pmf(Vec3::ZERO, Vec3::ZERO, i),
+            None => self.select.pmf(i),
+        }
+    }
+
+    /// Probability with which [`Lights::sample`] from `from` chooses each
+    /// light, by selection index (area lights, point, spot and directional
+    /// lights, the environment, the map), for tests and tools.
+    pub fn selection_pmfs(&self, from: &SurfacePoint) -> Vec<f32> {
+        (0..self.environment_map_index() + usize::from(self.environment_map.is_some()))
+            .map(|i| self.pmf(from, i))
+            .collect()
+    }
+
+    /// The light [`Lights::sample`] from `from` chooses with `u_select`:
+    /// its selection index and probability.
+    pub fn choose(
+        &self,
+        from: &SurfacePoint,
+        u_select: f32,
+    ) -> Option<crate::sampling::DiscreteSample> {
+        match &self.bvh {
+            Some(b) => b.sample(from.p, from.n, u_select),
+            None => self.select.sample(u_select),
+        }
+    }
+
+    /// Whether some light has a delta distribution (point, spot,
+    /// directional).
     pub fn has_delta(&self) -> bool {
-        !self.points.is_empty() || !self.directionals.is_empty()
+        !self.points.is_empty() || !self.spots.is_empty() || !self.directionals.is_empty()
     }
 
     /// Whether an escaping ray sees any radiance.
@@ -198,7 +270,7 @@ impl Lights {
 
     /// Selection index of the uniform environment.
     fn environment_index(&self) -> usize {
-        self.area.len() + self.points.len() + self.directionals.len()
+        self.area.len() + self.points.len() + self.spots.len() + self.directionals.len()
     }
 
     /// Selection index of the environment map.
@@ -235,16 +307,19 @@ impl Lights {
         u_select: f32,
         u: Vec2,
     ) -> Option<LightSample> {
-        let chosen = self.select.sample(u_select)?;
+        let chosen = self.choose(from, u_select)?;
         let mut i = chosen.index;
         if i < self.area.len() {
             return self.sample_area(scene, &self.area[i], chosen.pmf, from, u);
         }
         i -= self.area.len();
-        let delta = if i < self.points.len() {
+        let (n_points, n_spots) = (self.points.len(), self.spots.len());
+        let delta = if i < n_points {
             self.points[i].sample_li(from)?
-        } else if i < self.points.len() + self.directionals.len() {
-            self.directionals[i - self.points.len()].sample_li(from)
+        } else if i < n_points + n_spots {
+            self.spots[i - n_points].sample_li(from)?
+        } else if i < n_points + n_spots + self.directionals.len() {
+            self.directionals[i - n_points - n_spots].sample_li(from)
         } else if chosen.index == self.environment_index() && self.environment.is_some() {
             let wi = square_to_uniform_sphere(u);
             return Some(LightSample {
@@ -365,7 +440,7 @@ impl Lights {
             return 0.0;
         }
         let light = &self.area[idx as usize];
-        let pmf = self.select.pmf(idx as usize);
+        let pmf = self.pmf(from, idx as usize);
         let area = match light.shape {
             Emitter::Sphere { center, radius } => {
                 if let Some(cone) = sphere_cone(center, radius, from.p) {
@@ -396,12 +471,12 @@ impl Lights {
         let mut l = self.environment.unwrap_or(Vec3::ZERO);
         let mut pdf = 0.0;
         if self.environment.is_some() {
-            pdf += self.select.pmf(self.environment_index()) * square_to_uniform_sphere_pdf(wi);
+            pdf += self.pmf_infinite(self.environment_index()) * square_to_uniform_sphere_pdf(wi);
         }
         if let Some(map) = &self.environment_map {
             let (le, p) = map.eval_and_pdf(wi);
             l += le;
-            pdf += self.select.pmf(self.environment_map_index()) * p;
+            pdf += self.pmf_infinite(self.environment_map_index()) * p;
         }
         (l, pdf)
     }
@@ -411,13 +486,105 @@ impl Lights {
     pub fn pdf_environment(&self, wi: Vec3) -> f32 {
         let mut pdf = 0.0;
         if self.environment.is_some() {
-            pdf += self.select.pmf(self.environment_index()) * square_to_uniform_sphere_pdf(wi);
+            pdf += self.pmf_infinite(self.environment_index()) * square_to_uniform_sphere_pdf(wi);
         }
         if let Some(map) = &self.environment_map {
-            pdf += self.select.pmf(self.environment_map_index()) * map.pdf(wi);
+            pdf += self.pmf_infinite(self.environment_map_index()) * map.pdf(wi);
         }
         pdf
     }
+}
+
+/// The light BVH over `scene`'s lights: `area` (its area lights, first in
+/// the selection order) and the point and spot lights in the tree, the
+/// lights at infinity beside it; `powers` are every selection item's
+/// powers, in order.
+fn build_bvh(scene: &Scene, area: &[AreaLight], powers: &[f64]) -> LightBvh {
+    let (n_area, n_points, n_spots) = (
+        area.len(),
+        scene.point_lights.len(),
+        scene.spot_lights.len(),
+    );
+    // a spot light's bound is a point light's of the same intensity, its
+    // cone doing the rest (pbrt-v4's `SpotLight::Bounds`)
+    let mut phi: Vec<f64> = powers.to_vec();
+    for (k, s) in scene.spot_lights.iter().enumerate() {
+        phi[n_area + n_points + k] = 4.0 * PI_F64 * luminance_f64(s.intensity).max(0.0);
+    }
+    let phi = selection_weights(&phi[..n_area + n_points + n_spots]);
+    let mut items: Vec<(u32, LightBounds)> = Vec::with_capacity(phi.len());
+    for (k, light) in area.iter().enumerate() {
+        let corners: Vec<Vec3> = match light.shape {
+            Emitter::Triangle => scene.triangle(light.prim).to_vec(),
+            Emitter::Quad(q) => {
+                let mut c = scene.triangle(light.prim).to_vec();
+                c.extend(scene.triangle(q.second));
+                c
+            }
+            Emitter::Sphere { center, radius } => {
+                vec![center - Vec3::splat(radius), center + Vec3::splat(radius)]
+            }
+        };
+        let (min, max) = corners
+            .iter()
+            .fold((corners[0], corners[0]), |(lo, hi), c| {
+                (lo.min(*c), hi.max(*c))
+            });
+        let (w, cos_theta_o) = match light.shape {
+            // every normal: a sphere emits in every direction
+            Emitter::Sphere { .. } => (Vec3::Z, -1.0),
+            _ => (scene.surface_point(light.prim, 1.0 / 3.0, 1.0 / 3.0).n, 1.0),
+        };
+        items.push((
+            k as u32,
+            LightBounds {
+                min,
+                max,
+                w,
+                phi: phi[k],
+                cos_theta_o,
+                cos_theta_e: 0.0,
+                two_sided: light.two_sided,
+            },
+        ));
+    }
+    for (j, l) in scene.point_lights.iter().enumerate() {
+        let k = n_area + j;
+        items.push((
+            k as u32,
+            LightBounds {
+                min: l.position,
+                max: l.position,
+                w: Vec3::Z,
+                phi: phi[k],
+                cos_theta_o: -1.0,
+                cos_theta_e: 0.0,
+                two_sided: false,
+            },
+        ));
+    }
+    for (j, l) in scene.spot_lights.iter().enumerate() {
+        let k = n_area + n_points + j;
+        let (cutoff, beam) = (l.cutoff_angle().to_radians(), l.beam_width().to_radians());
+        items.push((
+            k as u32,
+            LightBounds {
+                min: l.position,
+                max: l.position,
+                w: l.axis(),
+                phi: phi[k],
+                cos_theta_o: beam.cos(),
+                cos_theta_e: (cutoff - beam).cos(),
+                two_sided: false,
+            },
+        ));
+    }
+    let first_infinite = n_area + n_points + n_spots;
+    let infinite: Vec<u32> = (first_infinite..powers.len())
+        .filter(|&i| powers[i].is_finite() && powers[i] > 0.0)
+        .map(|i| i as u32)
+        .collect();
+    LightBvh::new(&items, infinite, powers.len())
 }
 
 #[cfg(test)]

@@ -28,6 +28,7 @@
 //! with `q <= 0` ends; a surviving path is divided by `q > 0`, so its
 //! throughput stays finite.
 
+pub mod light_bvh;
 mod lights;
 mod path;
 
@@ -107,7 +108,7 @@ impl<'a> PathTracer<'a> {
         PathTracer {
             scene,
             accel,
-            lights: Lights::new(scene),
+            lights: Lights::with_sampler(scene, settings.light_sampler),
             settings,
             albedo: scene
                 .materials

@@ -1,8 +1,9 @@
 //! Light sources and their sampling: emissive triangles and spheres (area
-//! lights), point and directional lights, the uniform environment and the
+//! lights), point, spot and directional lights, the uniform environment and the
 //! environment map. One light is chosen in proportion to its power
 //! (luminance of radiance x area x pi, twice that for two-sided emitters;
-//! `4 pi I` for a point light; `E pi r^2` for a directional light and
+//! `4 pi I` for a point light; `I` times the falloff's solid angle for a
+//! spot light ([`spot`]); `E pi r^2` for a directional light and
 //! `pi^2 r^2 L` for the environment, `r` the scene's bounding radius;
 //! pbrt-v4's `PowerLightSampler`, section 12.6.3, with an alias table), then
 //! a point on it: uniform by area on a triangle, converted to solid angle by
@@ -26,10 +27,12 @@ pub mod directional;
 pub mod envmap;
 pub mod point;
 pub mod rectangle;
+pub mod spot;
 
 pub use directional::DirectionalLight;
 pub use envmap::{EnvironmentMap, EnvironmentSample};
 pub use point::PointLight;
+pub use spot::SpotLight;
 
 use crate::math::Ray;
 use crate::math::{Frame, Vec2, Vec3};

@@ -10,7 +10,7 @@ use super::{Material, MeshData, MeshRange, Scene, Transform};
 use crate::accel::{Placement, Prototype};
 use crate::camera::{CameraDesc, ThinLens};
 use crate::error::{Error, Result};
-use crate::light::PointLight;
+use crate::light::{PointLight, SpotLight};
 use crate::limits::{MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
 use crate::math::{DVec3, Vec2, Vec3, needle_factor, triangle_normal};
 use crate::settings::RenderDefaults;
@@ -132,6 +132,8 @@ pub struct SceneBuilder {
     spheres: Vec<(DVec3, f32, u32)>,
     /// Point lights and their world positions.
     point_lights: Vec<(DVec3, PointLight)>,
+    /// Spot lights and their world positions.
+    spot_lights: Vec<(DVec3, SpotLight)>,
     /// The camera, unless the scene is to be framed.
     camera: Option<WorldCamera>,
     /// Light a scene in which nothing emits with a uniform white
@@ -167,6 +169,7 @@ impl SceneBuilder {
                 environment: None,
                 environment_map: None,
                 point_lights: Vec::new(),
+                spot_lights: Vec::new(),
                 directional_lights: Vec::new(),
                 camera: CameraDesc {
                     origin: Vec3::Z,
@@ -187,6 +190,7 @@ impl SceneBuilder {
             counts: (0, 0),
             spheres: Vec::new(),
             point_lights: Vec::new(),
+            spot_lights: Vec::new(),
             camera: None,
             light_if_dark: false,
             prototypes: Vec::new(),
@@ -559,6 +563,12 @@ impl SceneBuilder {
         self.point_lights.push((position, light));
     }
 
+    /// Add a spot light at world `position` (its own position is replaced
+    /// by the rebased one).
+    pub fn add_spot_light(&mut self, position: DVec3, light: SpotLight) {
+        self.spot_lights.push((position, light));
+    }
+
     /// Set the camera, in world space. Without one the scene is framed from
     /// its bounds, with a note.
     pub fn set_camera(&mut self, camera: WorldCamera) {
@@ -656,9 +666,16 @@ impl SceneBuilder {
             light.position = (p - origin).as_vec3();
             self.scene.point_lights.push(light);
         }
+        for (p, mut light) in std::mem::take(&mut self.spot_lights) {
+            light.position = (p - origin).as_vec3();
+            self.scene.spot_lights.push(light);
+        }
         let s = &self.scene;
         let lit = s.has_emitters()
             || s.point_lights
+                .iter()
+                .any(|l| l.intensity.max_element() > 0.0)
+            || s.spot_lights
                 .iter()
                 .any(|l| l.intensity.max_element() > 0.0)
             || s.directional_lights

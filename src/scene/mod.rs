@@ -28,7 +28,7 @@ use crate::accel::Hit;
 use crate::bsdf::{Bsdf, Diffuse};
 use crate::camera::{Camera, CameraDesc, ThinLens};
 use crate::error::{Error, Result};
-use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
+use crate::light::{DirectionalLight, EnvironmentMap, PointLight, SpotLight};
 use crate::math::{DVec3, Ray, SurfacePoint, Vec2, Vec3};
 use crate::settings::RenderDefaults;
 use crate::shape::Sphere;
@@ -170,6 +170,8 @@ pub struct Scene {
     pub environment_map: Option<EnvironmentMap>,
     /// Point lights.
     pub point_lights: Vec<PointLight>,
+    /// Spot lights.
+    pub spot_lights: Vec<SpotLight>,
     /// Directional lights.
     pub directional_lights: Vec<DirectionalLight>,
     /// The camera, in render space.

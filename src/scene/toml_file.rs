@@ -32,6 +32,14 @@
 //! [[light]]
 //! type = "environment"
 //! radiance = [1.0, 1.0, 1.0]  # or one number
+//!
+//! [[light]]
+//! type = "spot"               # see crate::light::spot
+//! position = [0.0, 1.9, 0.0]
+//! target = [0.0, 0.0, 0.0]    # or direction = [0.0, -1.0, 0.0]
+//! intensity = 5.0             # W/sr on the axis, or [r, g, b]
+//! cutoff_angle = 30.0         # degrees (default 20)
+//! beam_width = 20.0           # degrees (default 3/4 of the cutoff)
 //! ```
 
 use super::procedural::{self, Shape};
@@ -43,7 +51,7 @@ use crate::bsdf::{
 };
 use crate::camera::ThinLens;
 use crate::error::{Error, Result};
-use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
+use crate::light::{DirectionalLight, EnvironmentMap, PointLight, SpotLight};
 use crate::limits::{self, MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
 use crate::math::{DVec3, Vec3};
 use crate::settings::{RenderDefaults, Roulette};
@@ -294,6 +302,9 @@ struct LightToml {
     direction: Option<Exact<f32, 3>>,
     irradiance: Option<Rgb>,
     attenuation: Option<Exact<f32, 3>>,
+    target: Option<Exact<f64, 3>>,
+    cutoff_angle: Option<f32>,
+    beam_width: Option<f32>,
 }
 
 /// A fixed-length array: more elements, or fewer, are an error at its line
@@ -903,6 +914,7 @@ pub fn load(path: &Path) -> Result<Scene> {
     }
 
     let mut point_lights = Vec::new();
+    let mut spot_lights = Vec::new();
     let scene = b.scene_mut();
     let light_lines = table_lines(&text, "light");
     for (i, l) in file.light.iter().enumerate() {
@@ -916,14 +928,25 @@ pub fn load(path: &Path) -> Result<Scene> {
             ("direction", l.direction.is_some()),
             ("irradiance", l.irradiance.is_some()),
             ("attenuation", l.attenuation.is_some()),
+            ("target", l.target.is_some()),
+            ("cutoff_angle", l.cutoff_angle.is_some()),
+            ("beam_width", l.beam_width.is_some()),
         ];
         let allowed: &[&str] = match l.kind.as_str() {
             "environment" => &["radiance", "file"],
             "point" => &["position", "intensity", "attenuation"],
             "directional" => &["direction", "irradiance"],
+            "spot" => &[
+                "position",
+                "target",
+                "direction",
+                "intensity",
+                "cutoff_angle",
+                "beam_width",
+            ],
             other => {
                 return Err(fail(format!(
-                    "unknown light type `{other}` (expected \"environment\", \"point\" or \"directional\")"
+                    "unknown light type `{other}` (expected \"environment\", \"point\", \"spot\" or \"directional\")"
                 )));
             }
         };
@@ -976,6 +999,34 @@ pub fn load(path: &Path) -> Result<Scene> {
                     })?;
                 }
                 point_lights.push((p, light));
+            }
+            "spot" => {
+                let p = l
+                    .position
+                    .ok_or_else(|| fail("spot light needs `position`".to_string()))?;
+                let p = check_point(path, line, "position", p.0)?;
+                let direction = match (l.target, l.direction) {
+                    (Some(t), None) => (check_point(path, line, "target", t.0)? - p).as_vec3(),
+                    (None, Some(d)) => check_vec(path, line, "direction", Vec3::from(d.0))?,
+                    _ => {
+                        return Err(fail(
+                            "spot light needs exactly one of `target` and `direction`".to_string(),
+                        ));
+                    }
+                };
+                let i = check_colour(path, line, "intensity", need(l.intensity, "intensity")?)?;
+                let cutoff = l
+                    .cutoff_angle
+                    .unwrap_or(crate::light::spot::DEFAULT_CUTOFF_ANGLE);
+                let light = SpotLight::new(Vec3::ZERO, direction, i, cutoff, l.beam_width)
+                    .map_err(|m| {
+                        fail(if direction == Vec3::ZERO && l.target.is_some() {
+                            "spot light: `target` must differ from `position`".to_string()
+                        } else {
+                            m
+                        })
+                    })?;
+                spot_lights.push((p, light));
             }
             _ => {
                 let d = l
@@ -1107,6 +1158,9 @@ pub fn load(path: &Path) -> Result<Scene> {
     }
     for (p, light) in point_lights {
         b.add_point_light(p, light);
+    }
+    for (p, light) in spot_lights {
+        b.add_spot_light(p, light);
     }
     Ok(b.build())
 }

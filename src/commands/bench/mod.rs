@@ -15,7 +15,7 @@ use crate::error::{Error, Result};
 use crate::outputs::{self, Inputs};
 use crate::sampler::SamplerKind;
 use crate::scene::Scene;
-use crate::settings::{self, Flags};
+use crate::settings::{self, Flags, LightSampler};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -65,6 +65,10 @@ pub struct BenchArgs {
     /// Sampler of the --efficiency renders.
     #[arg(long, default_value_t = SamplerKind::default())]
     sampler: SamplerKind,
+    /// Light selection of the --effects and --efficiency renders: auto,
+    /// power or bvh [default: auto].
+    #[arg(long = "light-sampler", value_name = "auto|power|bvh")]
+    light_sampler: Option<LightSampler>,
 }
 
 /// Triangle count above which `bench` leaves the naive backend out unless named.
@@ -89,6 +93,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         spp: Some(args.spp),
         resolution: Some([args.resolution[0], args.resolution[1]]),
         threads: args.threads,
+        light_sampler: args.light_sampler,
         ..Flags::default()
     };
     let resolved = settings::resolve(&scene.render, scene.resolution, &flags)?;

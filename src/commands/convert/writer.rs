@@ -16,7 +16,7 @@
 //!   (`STEM-prototype-P-K.obj`, object space), a named `instance_only`
 //!   `[[mesh]]` each, and an `[[instance]]` per placement and run with the
 //!   placement's exact `f64` matrix: instances stay instances;
-//! - spheres, point, directional and environment lights, camera and lens,
+//! - spheres, point, spot, directional and environment lights, camera and lens,
 //!   film and render defaults as TOML keys.
 //!
 //! Nothing is written if any of these files would overwrite one the scene
@@ -426,6 +426,17 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
         if p.attenuation != crate::light::point::PHYSICAL {
             let _ = writeln!(t, "attenuation = {}", rgb(Vec3::from(p.attenuation)));
         }
+    }
+    for l in &scene.spot_lights {
+        let _ = write!(
+            t,
+            "\n[[light]]\ntype = \"spot\"\nposition = {}\ndirection = {}\nintensity = {}\ncutoff_angle = {}\nbeam_width = {}\n",
+            world(scene, l.position),
+            rgb(l.direction()),
+            rgb(l.intensity),
+            num(l.cutoff_angle()),
+            num(l.beam_width())
+        );
     }
     for d in &scene.directional_lights {
         let _ = write!(

@@ -19,7 +19,7 @@ use crate::progressive::{Adaptive, Budget, CONFIDENCE, PassRecord, render_progre
 use crate::render::{self, RenderSettings};
 use crate::sampler::SamplerKind;
 use crate::scene::Scene;
-use crate::settings::{self, Flags};
+use crate::settings::{self, Flags, LightSampler};
 use crate::settings::{DirectStrategy, IntegratorSettings, Roulette};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -84,6 +84,11 @@ pub struct RenderArgs {
     /// scene's, 3 unless it says].
     #[arg(long = "rr-depth", allow_negative_numbers = true)]
     rr_depth: Option<u32>,
+    /// Light selection: auto (the light BVH from 64 lights that are not at
+    /// infinity, else power), power (in proportion to power) or bvh (by a
+    /// light BVH, by importance at the shading point) [default: auto].
+    #[arg(long = "light-sampler", value_name = "auto|power|bvh")]
+    light_sampler: Option<LightSampler>,
     /// Write a JSON report of the run.
     #[arg(long, value_name = "FILE")]
     report: Option<PathBuf>,
@@ -301,6 +306,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         direct: args.direct,
         rr: args.rr,
         rr_depth: args.rr_depth,
+        light_sampler: args.light_sampler,
         threads: args.threads,
         tile_size: Some(args.tile_size),
         ..Flags::default()
@@ -608,6 +614,7 @@ fn image_settings(
         ("direct", i.direct.to_string()),
         ("roulette", roulette),
         ("rr_depth", i.rr_depth.to_string()),
+        ("light_sampler", i.light_sampler.to_string()),
         ("backend", backend.name().to_string()),
         ("robust", (!build.no_robust).to_string()),
         (

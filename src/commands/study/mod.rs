@@ -9,7 +9,7 @@ use crate::accel::Backend;
 use crate::error::{Error, Result};
 use crate::sampler::SamplerKind;
 use crate::scene::Scene;
-use crate::settings::{self, Flags};
+use crate::settings::{self, Flags, LightSampler};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -22,7 +22,8 @@ pub struct StudyArgs {
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// A setting and its values, NAME=V1,V2,...; repeat to combine. Names:
-    /// spp, max_depth, light_samples, direct, rr, rr_depth, backend, sampler.
+    /// spp, max_depth, light_samples, direct, rr, rr_depth, backend, sampler,
+    /// light_sampler.
     #[arg(long, value_name = "NAME=V1,V2,...")]
     vary: Vec<String>,
     /// Reference image (.exr or .pfm), or `auto` to render (and cache in DIR)
@@ -59,6 +60,11 @@ pub struct StudyArgs {
     /// Base backend [embree when compiled in].
     #[arg(long)]
     accel: Option<Backend>,
+    /// Light selection: auto (the light BVH from 64 lights that are not at
+    /// infinity, else power), power (in proportion to power) or bvh (by a
+    /// light BVH, by importance at the shading point) [default: auto].
+    #[arg(long = "light-sampler", value_name = "auto|power|bvh")]
+    light_sampler: Option<LightSampler>,
     #[command(flatten)]
     build: BuildArgs,
     /// Print nothing but errors.
@@ -97,6 +103,7 @@ pub fn run(args: StudyArgs) -> Result<()> {
         resolution: args.resolution.as_deref().map(|r| [r[0], r[1]]),
         seed: args.seed,
         threads: args.threads,
+        light_sampler: args.light_sampler,
         ..Flags::default()
     };
     let resolved = settings::resolve(&scene.render, scene.resolution, &flags)?;

@@ -52,6 +52,7 @@ pub const VARY_NAMES: &[&str] = &[
     "rr_depth",
     "backend",
     "sampler",
+    "light_sampler",
 ];
 
 /// Everything one render of a study depends on.
@@ -116,6 +117,7 @@ impl RunSettings {
             }
             "backend" => self.backend = value.parse()?,
             "sampler" => self.sampler = value.parse()?,
+            "light_sampler" => self.integrator.light_sampler = value.parse()?,
             _ => {
                 return Err(format!(
                     "cannot vary `{name}` (expected one of {})",

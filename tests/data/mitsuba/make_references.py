@@ -26,7 +26,7 @@ import mitsuba as mi
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-SCENES = ["cbox", "lights", "envmap", "instances"]
+SCENES = ["cbox", "lights", "envmap", "instances", "spot"]
 PASSES = 8
 SPP = int(sys.argv[1]) if len(sys.argv) > 1 else 4096
 
