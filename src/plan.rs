@@ -208,8 +208,11 @@ impl Plan {
         };
         let textured: Vec<String> = used_materials
             .iter()
-            .filter(|m| m.texture.is_some())
-            .map(|m| format!("`{}`", m.name))
+            .flat_map(|m| {
+                m.textured()
+                    .into_iter()
+                    .map(|(key, _)| format!("`{}` {key}", m.name))
+            })
             .collect();
         let emitters: Vec<String> = used_materials
             .iter()
@@ -276,8 +279,8 @@ impl Plan {
         add(
             "texture",
             textured,
-            "textured materials",
-            "bilinear albedo lookup at the hit's UV (texture.rs)",
+            "textured parameters",
+            "bilinear lookups of the textured parameters at the hit's UV (texture.rs, scene/maps.rs)",
         );
         add(
             "area_light",

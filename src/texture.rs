@@ -221,6 +221,15 @@ impl ImageTexture {
         (1.0 - fy) * ((1.0 - fx) * a + fx * b) + fy * ((1.0 - fx) * c + fx * d)
     }
 
+    /// The smallest value [`ImageTexture::eval_scalar`] can return (bilinear
+    /// lookup stays within the texels' range).
+    pub fn min_scalar(&self) -> f32 {
+        self.texels
+            .iter()
+            .map(|&c| if self.grey { c.x } else { luminance(c) })
+            .fold(f32::INFINITY, f32::min)
+    }
+
     /// A scalar at `uv`: the grey value of a grey image, otherwise the
     /// luminance of [`ImageTexture::eval`].
     pub fn eval_scalar(&self, uv: Vec2) -> f32 {

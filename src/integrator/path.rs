@@ -132,19 +132,26 @@ impl KernelBsdf for Bsdf {
     #[inline]
     fn at(tracer: &PathTracer<'_>, its: &Interaction, m: usize) -> Self {
         let material = &tracer.scene.materials[m];
-        let Some(t) = &material.texture else {
+        if material.texture.is_none() && !material.maps.textures_bsdf() {
             return material.bsdf;
-        };
-        let uv = tracer.scene.uv(its.prim, &its.sp, its.u, its.v);
-        let albedo = t.eval(uv).clamp(Vec3::ZERO, Vec3::ONE);
-        match &material.bsdf {
-            Bsdf::Plastic(p) => Bsdf::Plastic(p.with_diffuse(albedo)),
-            Bsdf::Phong(p) => Bsdf::Phong(Phong {
-                diffuse: albedo,
-                ..*p
-            }),
-            _ => Bsdf::Diffuse(Diffuse { albedo }),
         }
+        let uv = tracer.scene.uv(its.prim, &its.sp, its.u, its.v);
+        let mut bsdf = match &material.texture {
+            None => material.bsdf,
+            Some(t) => {
+                let albedo = t.eval(uv).clamp(Vec3::ZERO, Vec3::ONE);
+                match &material.bsdf {
+                    Bsdf::Plastic(p) => Bsdf::Plastic(p.with_diffuse(albedo)),
+                    Bsdf::Phong(p) => Bsdf::Phong(Phong {
+                        diffuse: albedo,
+                        ..*p
+                    }),
+                    _ => Bsdf::Diffuse(Diffuse { albedo }),
+                }
+            }
+        };
+        material.maps.apply(&mut bsdf, uv);
+        bsdf
     }
 }
 

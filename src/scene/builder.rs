@@ -231,12 +231,10 @@ impl SceneBuilder {
         }
         if mesh.uvs.is_empty() {
             let used = |m: usize| mesh.tri_material.iter().any(|&t| t as usize == m);
-            if let Some((_, m)) = mesh
-                .materials
-                .iter()
-                .enumerate()
-                .find(|(i, m)| m.texture.is_some() && used(*i))
-            {
+            if let Some((_, m)) = mesh.materials.iter().enumerate().find(|(i, m)| {
+                (m.texture.is_some() || !m.textured().is_empty() || m.maps.perturbs_normal())
+                    && used(*i)
+            }) {
                 return fail(format!(
                     "mesh `{}` has no texture coordinates (vt), but its material `{}` has a texture",
                     mesh.name, m.name

@@ -15,6 +15,7 @@ mod builder;
 mod collada;
 mod cse;
 mod input;
+mod maps;
 mod mesh;
 mod mitsuba;
 mod obj;
@@ -38,6 +39,7 @@ use std::sync::Arc;
 pub use builder::{SceneBuilder, WorldCamera, render_origin};
 use input::read_scene_text;
 pub(crate) use input::{Content, not_a_file, read_bounded};
+pub use maps::{BumpMap, Maps};
 pub use mesh::{MeshData, Transform};
 pub use obj::load_obj_mesh;
 pub use ply::{MAX_POLYGON, load_ply_mesh};
@@ -54,11 +56,14 @@ pub struct Material {
     /// diffuse albedo of a `diffuse` BSDF or the base of a `plastic` one,
     /// looked up at the surface's texture coordinates.
     pub texture: Option<Arc<ImageTexture>>,
-    /// Emitted radiance (an area light when non-zero).
+    /// Emitted radiance (an area light when non-zero); the mean of
+    /// `maps.emission` when that is set.
     pub emission: Vec3,
     /// Emit from both sides (otherwise only from the front, where the
     /// triangle winds counter-clockwise or the sphere's normal points out).
     pub two_sided: bool,
+    /// Textures on the other parameters, and a normal or bump map.
+    pub maps: Maps,
 }
 
 impl Material {
@@ -77,6 +82,22 @@ impl Material {
             Bsdf::Diffuse(d) => Some(d.albedo),
             _ => None,
         }
+    }
+
+    /// The textured parameters, by the key scene files give them, with
+    /// their textures (the diffuse albedo's as `texture`).
+    pub fn textured(&self) -> Vec<(&'static str, &Arc<ImageTexture>)> {
+        let m = &self.maps;
+        [
+            ("texture", self.texture.as_ref()),
+            (Maps::specular_key(&self.bsdf), m.specular.as_ref()),
+            ("transmittance", m.transmittance.as_ref()),
+            ("alpha", m.alpha.as_ref()),
+            ("emission", m.emission.as_ref()),
+        ]
+        .into_iter()
+        .filter_map(|(k, t)| t.map(|t| (k, t)))
+        .collect()
     }
 
     /// The material's type as scene files spell it.
@@ -102,6 +123,7 @@ impl Default for Material {
             texture: None,
             emission: Vec3::ZERO,
             two_sided: false,
+            maps: Maps::default(),
         }
     }
 }

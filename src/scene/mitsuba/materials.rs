@@ -272,6 +272,7 @@ impl<'a, 'i> Loader<'a, 'i> {
             texture,
             emission: Vec3::ZERO,
             two_sided: false,
+            maps: Default::default(),
         })
     }
 

