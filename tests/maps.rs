@@ -140,6 +140,10 @@ fn a_constant_texture_renders_the_constant_bits() {
             r#"{ type = "glass", reflectance = { texture = "c.png", raw = true }, transmittance = { texture = "c.png", raw = true } }"#,
         ),
         (
+            r#"{ diffuse = 0.5, emission = 0.2, two_sided = true }"#,
+            r#"{ diffuse = 0.5, emission = { texture = "c.png", raw = true }, two_sided = true }"#,
+        ),
+        (
             r#"{ type = "phong", diffuse = 0.5, specular = 0.2, shininess = 20.0 }"#,
             r#"{ type = "phong", diffuse = 0.5, specular = { texture = "c.png", raw = true }, shininess = 20.0 }"#,
         ),
@@ -265,5 +269,35 @@ fn bad_texture_keys_and_files_are_one_line_errors_with_the_line() {
             (e.contains("s.toml:8:") || e.contains("s.toml:10:")) && e.contains(what),
             "{material}: {e}"
         );
+    }
+}
+
+#[test]
+fn an_emission_texture_is_seen_and_sampled_at_the_uv() {
+    // left texel black, right texel white (raw): the camera sees the right
+    // half of the quad bright and the left dark; a sphere in front of the
+    // quad is lit by it through light samples (the power uses the mean 0.5)
+    let half = png(
+        2,
+        1,
+        |x, _| if x == 0 { [0, 0, 0] } else { [255, 255, 255] },
+    );
+    let files = [("q.obj", QUAD.as_bytes().to_vec()), ("h.png", half)];
+    let scene = load(
+        &quad_scene(r#"{ diffuse = 0.0, emission = { texture = "h.png", raw = true } }"#),
+        &files,
+    );
+    assert_eq!(
+        scene.materials[0].emission,
+        embertrace::math::Vec3::splat(0.5)
+    );
+    for backend in Backend::available() {
+        let out = render_with(&scene, backend, None, 2);
+        let rgb = out.film.to_rgb_f32();
+        // row 8, columns 5 (u about 0.375: 0.25 bilinear) and 10 (0.625: 0.75)
+        let at = |x: usize| rgb[3 * (8 * 16 + x)];
+        assert!(at(10) > at(5) + 0.4, "{backend}: {} vs {}", at(10), at(5));
+        let general = render_with(&scene, backend, Some(Kernel::GENERAL), 2);
+        assert_eq!(bits(&out), bits(&general));
     }
 }

@@ -321,7 +321,7 @@ impl<'a> PathTracer<'a> {
             let (le, light_pdf) = match &its {
                 None if ENVIRONMENT => self.lights.environment_and_pdf(wi),
                 Some(n) if EMITTERS => (
-                    self.lights.le(self.scene, n.prim, n.sp.n, n.wo),
+                    self.emitted(n),
                     // the density light sampling had, from where it sampled
                     self.lights.pdf_area(&prev.from, n.prim, &n.sp),
                 ),
@@ -635,6 +635,20 @@ impl<'a> PathTracer<'a> {
 
     /// Emission leaving the surface towards the viewer.
     fn zero_bounce_radiance(&self, its: &Interaction) -> Vec3 {
-        self.lights.le(self.scene, its.prim, its.sp.n, its.wo)
+        self.emitted(its)
+    }
+
+    /// Radiance leaving the surface at `its` towards `wo`: the material's
+    /// emission, or its emission texture at the hit's UV.
+    #[inline]
+    fn emitted(&self, its: &Interaction) -> Vec3 {
+        let le = self.lights.le(self.scene, its.prim, its.sp.n, its.wo);
+        if !self.lights.has_textured_emission() || le == Vec3::ZERO {
+            return le;
+        }
+        match &self.scene.material(its.prim).maps.emission {
+            Some(t) => t.eval(self.scene.uv(its.prim, &its.sp, its.u, its.v)),
+            None => le,
+        }
     }
 }
