@@ -40,7 +40,10 @@ pub struct Kernel {
     /// Emissive surfaces (area lights); off: a hit is never looked up for
     /// emission and, with no environment either, no MIS weight is computed.
     pub emitters: bool,
-    /// Spheres or smooth normals; off: every hit is a flat-shaded triangle.
+    /// Spheres, smooth normals, normal or bump maps: a shading normal that
+    /// may differ from the geometric one, with the side checks against the
+    /// geometric normal that keep light from crossing the surface; off:
+    /// every hit is a flat-shaded triangle.
     pub shapes: bool,
     /// A thin-lens camera; off: camera rays come from the pinhole, with no
     /// lens sample drawn.
@@ -68,7 +71,10 @@ impl Kernel {
             (self.delta, "delta-lobe and delta-light checks"),
             (self.environment, "environment lookups on escape"),
             (self.emitters, "emission lookups at hits"),
-            (self.shapes, "sphere and smooth-normal shading"),
+            (
+                self.shapes,
+                "sphere, smooth-normal and normal/bump-map shading",
+            ),
             (self.lens, "lens sampling"),
         ]
         .iter()
@@ -101,7 +107,7 @@ impl Kernel {
 
 /// The effect names, in the order `plan` lists them. These names are fixed:
 /// scripts read them from `plan --json` and from the render report.
-pub const EFFECTS: [&str; 16] = [
+pub const EFFECTS: [&str; 18] = [
     "diffuse",
     "mirror",
     "glass",
@@ -120,6 +126,10 @@ pub const EFFECTS: [&str; 16] = [
     // appended (not grouped with the materials) so that the positions of
     // the earlier names in `plan --json` stay as they were
     "phong",
+    // appended in the fixed order (instancing, many_lights and
+    // spot_light come from other branches, before these)
+    "normal_map",
+    "bump_map",
 ];
 
 /// Which kernel to run (`--plan`).
@@ -372,6 +382,25 @@ impl Plan {
             "phong materials",
             "Lambertian plus a Phong or GGX-Schlick lobe, mixture sampling (bsdf/phong.rs)",
         );
+        let mapped = |f: fn(&crate::scene::Maps) -> bool| -> Vec<String> {
+            used_materials
+                .iter()
+                .filter(|m| f(&m.maps))
+                .map(|m| format!("`{}`", m.name))
+                .collect()
+        };
+        add(
+            "normal_map",
+            mapped(|m| m.normal.is_some()),
+            "materials with a normal_map",
+            "tangent-space normal lookup in a UV tangent frame, side checks against ng (integrator/path.rs, scene/maps.rs)",
+        );
+        add(
+            "bump_map",
+            mapped(|m| m.bump.is_some()),
+            "materials with a bump_map",
+            "height-gradient lookup, perturbed dp/du x dp/dv normal, side checks against ng (integrator/path.rs, texture.rs)",
+        );
         let on = |n: &str| effects.iter().any(|e| e.name == n && e.on);
         let kernel = Kernel {
             materials: [
@@ -387,7 +416,7 @@ impl Plan {
             delta: !delta_bsdfs.is_empty() || on("point_light") || on("directional_light"),
             environment: on("environment") || on("environment_map"),
             emitters: on("area_light"),
-            shapes: on("sphere") || on("smooth_normals"),
+            shapes: on("sphere") || on("smooth_normals") || on("normal_map") || on("bump_map"),
             lens: on("thin_lens"),
         };
         Plan { effects, kernel }

@@ -230,6 +230,37 @@ impl ImageTexture {
             .fold(f32::INFINITY, f32::min)
     }
 
+    /// The gradient `(d/du, d/dv)` at `uv` of [`ImageTexture::eval_scalar`]
+    /// (a bump map's slope): the derivative of the bilinear interpolant, so
+    /// within a cell the difference of neighbouring texels along one axis,
+    /// weighted by the other axis' bilinear weights, times the resolution
+    /// (as Mitsuba 3's `bitmap` computes `eval_1_grad`). `v` points up
+    /// while rows go down, hence the sign of `d/dv`. Zero for a non-finite
+    /// coordinate and for a uniform texture.
+    pub fn eval_scalar_grad(&self, uv: Vec2) -> Vec2 {
+        if !uv.is_finite() || self.uniform.is_some() {
+            return Vec2::ZERO;
+        }
+        let s = uv.x as f64 * self.width as f64 - 0.5;
+        let t = (1.0 - uv.y as f64) * self.height as f64 - 0.5;
+        let (x0, y0) = (crate::math::floor_f64(s), crate::math::floor_f64(t));
+        let (fx, fy) = ((s - x0) as f32, (t - y0) as f32);
+        let (w, h) = (self.width as usize, self.height as usize);
+        let x0 = (x0 as i64).rem_euclid(w as i64) as usize;
+        let y0 = (y0 as i64).rem_euclid(h as i64) as usize;
+        let x1 = if x0 + 1 == w { 0 } else { x0 + 1 };
+        let y1 = if y0 + 1 == h { 0 } else { y0 + 1 };
+        let f = |x: usize, y: usize| {
+            let c = self.texels[y * w + x];
+            if self.grey { c.x } else { luminance(c) }
+        };
+        let (a, b) = (f(x0, y0), f(x1, y0));
+        let (c, d) = (f(x0, y1), f(x1, y1));
+        let ds = (1.0 - fy) * (b - a) + fy * (d - c);
+        let dt = (1.0 - fx) * (c - a) + fx * (d - b);
+        Vec2::new(ds * w as f32, -dt * h as f32)
+    }
+
     /// A scalar at `uv`: the grey value of a grey image, otherwise the
     /// luminance of [`ImageTexture::eval`].
     pub fn eval_scalar(&self, uv: Vec2) -> f32 {
@@ -334,6 +365,30 @@ mod tests {
         assert_eq!(colour.mean(), Vec3::new(0.5, 0.5, 0.5));
         let c = colour.eval(Vec2::new(0.25, 0.75));
         assert_eq!(colour.eval_scalar(Vec2::new(0.25, 0.75)), luminance(c));
+    }
+
+    #[test]
+    fn the_scalar_gradient_is_the_bilinear_slope() {
+        // a ramp along x: texel x holds x / 4; d/du = 1/4 per texel * 4 texels
+        let ramp: Vec<f32> = (0..8).flat_map(|i| [(i % 4) as f32 / 4.0; 3]).collect();
+        let t = ImageTexture::from_linear_rgb(4, 2, ramp).unwrap();
+        let g = t.eval_scalar_grad(Vec2::new(0.4, 0.3));
+        assert!((g.x - 1.0).abs() < 1e-6 && g.y == 0.0, "{g}");
+        // the same ramp along the rows, top row 0: the value falls as v rises
+        let col: Vec<f32> = (0..8).flat_map(|i| [(i / 2) as f32 / 4.0; 3]).collect();
+        let t = ImageTexture::from_linear_rgb(2, 4, col).unwrap();
+        let g = t.eval_scalar_grad(Vec2::new(0.3, 0.5));
+        assert!((g.y + 1.0).abs() < 1e-6 && g.x == 0.0, "{g}");
+        // finite differences of eval_scalar agree inside a cell
+        let c = checker();
+        let (uv, e) = (Vec2::new(0.4, 0.6), 1e-3);
+        let g = c.eval_scalar_grad(uv);
+        let du = (c.eval_scalar(uv + Vec2::X * e) - c.eval_scalar(uv - Vec2::X * e)) / (2.0 * e);
+        let dv = (c.eval_scalar(uv + Vec2::Y * e) - c.eval_scalar(uv - Vec2::Y * e)) / (2.0 * e);
+        assert!(
+            (g.x - du).abs() < 1e-2 && (g.y - dv).abs() < 1e-2,
+            "{g} {du} {dv}"
+        );
     }
 
     /// It said "Is a directory (os error 21)" after trying to decode it.

@@ -301,3 +301,205 @@ fn an_emission_texture_is_seen_and_sampled_at_the_uv() {
         assert_eq!(bits(&out), bits(&general));
     }
 }
+
+/// The quad, lit only by a directional light travelling along `dir`,
+/// direct lighting only: every pixel is `rho / pi E cos`, with the cosine
+/// taken against the shading normal.
+fn lit_quad(material: &str, dir: [f32; 3]) -> String {
+    format!(
+        r#"
+[camera]
+origin = [0.0, 0.0, 3.0]
+target = [0.0, 0.0, 0.0]
+fov_y = 30.0
+[render]
+max_depth = 1
+[[mesh]]
+file = "q.obj"
+material = {material}
+[[light]]
+type = "directional"
+direction = [{}, {}, {}]
+irradiance = 2.0
+"#,
+        dir[0], dir[1], dir[2]
+    )
+}
+
+fn image_sum(out: &RenderOutput) -> f64 {
+    out.film.to_rgb_f32().iter().map(|&v| v as f64).sum()
+}
+
+/// The normal a raw 8-bit normal-map texel encodes (Mitsuba 3's
+/// `normalmap`: `2 c - 1`, normalised), in f64.
+fn decoded(c: [u8; 3]) -> [f64; 3] {
+    let v = c.map(|b| 2.0 * b as f64 / 255.0 - 1.0);
+    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    v.map(|x| x / l)
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// `image(mapped) / image(plain)` against `cos(n', l) / cos(n, l)`, on every
+/// backend; returns whether the two images had the same bits.
+fn check_ratio(mapped: &str, files: &[(&str, Vec<u8>)], n_mapped: [f64; 3], dir: [f32; 3]) -> bool {
+    let plain = load(&lit_quad("{ diffuse = 0.5 }", dir), files);
+    let scene = load(&lit_quad(mapped, dir), files);
+    let l = {
+        let d = dir.map(|x| -x as f64);
+        let n = dot(d, d).sqrt();
+        d.map(|x| x / n)
+    };
+    let predicted = dot(n_mapped, l) / l[2];
+    let mut same = true;
+    for backend in Backend::available() {
+        let a = render_with(&plain, backend, None, 2);
+        let b = render_with(&scene, backend, None, 2);
+        let ratio = image_sum(&b) / image_sum(&a);
+        assert!(
+            (ratio - predicted).abs() < 2e-5 * predicted,
+            "{mapped} on {backend}: ratio {ratio}, predicted {predicted}"
+        );
+        same &= bits(&a) == bits(&b);
+        let general = render_with(&scene, backend, Some(Kernel::GENERAL), 2);
+        assert_eq!(bits(&b), bits(&general), "{mapped} on {backend}: general");
+    }
+    same
+}
+
+#[test]
+fn a_flat_normal_map_tilts_by_its_quantisation_only() {
+    // (128, 128, 255) is not (0, 0, 1): 2 * 128 / 255 - 1 = 1/255, a tilt of
+    // atan(sqrt(2) / 255) = 0.32 degrees towards +s +t. So the image is not
+    // the unmapped one's bits; it is what that tilt predicts (to 2e-5).
+    let files = [
+        ("q.obj", QUAD.as_bytes().to_vec()),
+        ("n.png", png(2, 2, |_, _| [128, 128, 255])),
+    ];
+    let dir = [-0.3, -0.2, -1.0];
+    let same = check_ratio(
+        r#"{ diffuse = 0.5, normal_map = "n.png" }"#,
+        &files,
+        decoded([128, 128, 255]),
+        dir,
+    );
+    assert!(!same, "the 1/255 tilt shows");
+}
+
+#[test]
+fn a_tilted_normal_map_shades_as_the_cosine_predicts() {
+    // s = +x (dp/du of the quad), t = n x s = +y, n = +z
+    for texel in [[200u8, 128, 220], [90, 170, 230], [128, 40, 200]] {
+        let files = [
+            ("q.obj", QUAD.as_bytes().to_vec()),
+            ("n.png", png(2, 2, |_, _| texel)),
+        ];
+        for dir in [[-0.3f32, -0.2, -1.0], [0.5, 0.1, -1.0]] {
+            check_ratio(
+                r#"{ diffuse = 0.5, normal_map = "n.png" }"#,
+                &files,
+                decoded(texel),
+                dir,
+            );
+        }
+    }
+}
+
+#[test]
+fn a_zero_bump_map_changes_no_bit() {
+    let files = [("q.obj", QUAD.as_bytes().to_vec()), ("b.png", grey(77))];
+    let same = check_ratio(
+        r#"{ diffuse = 0.5, bump_map = "b.png", bump_scale = 3.0 }"#,
+        &files,
+        [0.0, 0.0, 1.0],
+        [-0.3, -0.2, -1.0],
+    );
+    assert!(same, "a constant height has no slope: the same bits");
+}
+
+#[test]
+fn a_linear_bump_ramp_tilts_the_normal_by_the_predicted_angle() {
+    // heights 20 x / 255 over 8 texels: dh/du = 8 * 20 / 255 between texel
+    // centres (the camera sees u in [0.1, 0.9], inside them, so no wrap);
+    // with dp/du = (2, 0, 0), dp/dv = (0, 2, 0) and scale k the normal is
+    // (-2 g, 0, 4) normalised, g = k dh/du: a tilt of atan(g / 2)
+    let ramp = png(8, 1, |x, _| [(20 * x) as u8; 3]);
+    let files = [("q.obj", QUAD.as_bytes().to_vec()), ("b.png", ramp)];
+    for k in [0.5f64, 2.0] {
+        let g = k * 8.0 * 20.0 / 255.0;
+        let l = (4.0 * g * g + 16.0f64).sqrt();
+        let n = [-2.0 * g / l, 0.0, 4.0 / l];
+        for dir in [[-0.3f32, -0.2, -1.0], [0.4, 0.0, -1.0]] {
+            check_ratio(
+                &format!(r#"{{ diffuse = 0.5, bump_map = "b.png", bump_scale = {k} }}"#),
+                &files,
+                n,
+                dir,
+            );
+        }
+    }
+}
+
+#[test]
+fn normal_maps_let_no_light_through_the_surface_and_turn_shapes_on() {
+    // a map leaning far over (towards -x), a light from behind the quad
+    // whose direction the leaning normal faces: still exactly black
+    let files = [
+        ("q.obj", QUAD.as_bytes().to_vec()),
+        ("n.png", png(2, 2, |_, _| [10, 128, 140])),
+    ];
+    let scene = load(
+        &lit_quad(
+            r#"{ diffuse = 0.9, normal_map = "n.png" }"#,
+            [-1.0, 0.0, 0.05],
+        ),
+        &files,
+    );
+    let plan = Plan::new(&scene, &IntegratorSettings::default());
+    assert!(plan.kernel.shapes && plan.on().contains(&"normal_map"));
+    for backend in Backend::available() {
+        let out = render_with(&scene, backend, None, 4);
+        assert!(
+            out.film.to_rgb_f32().iter().all(|v| *v == 0.0),
+            "{backend}: leak"
+        );
+    }
+}
+
+#[test]
+fn maps_on_spheres_smooth_meshes_and_every_material_keep_general_bit_identical() {
+    let bumps = png(8, 8, |x, y| [((x * 37 + y * 11) % 256) as u8; 3]);
+    let normals = png(4, 4, |x, y| [100 + 20 * x as u8, 90 + 25 * y as u8, 230]);
+    let smooth = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n\
+vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+vn -0.3 -0.3 1\nvn 0.3 -0.3 1\nvn 0.3 0.3 1\nvn -0.3 0.3 1\n\
+f 1/1/1 2/2/2 3/3/3\nf 1/1/1 3/3/3 4/4/4\n";
+    let files = [
+        ("q.obj", smooth.as_bytes().to_vec()),
+        ("b.png", bumps),
+        ("n.png", normals),
+    ];
+    for material in [
+        r#"{ diffuse = 0.7, normal_map = "n.png" }"#,
+        r#"{ diffuse = 0.7, bump_map = "b.png", bump_scale = 0.3 }"#,
+        r#"{ type = "glass", normal_map = "n.png" }"#,
+        r#"{ type = "conductor", alpha = 0.2, bump_map = "b.png" }"#,
+        r#"{ type = "plastic", alpha = 0.1, normal_map = "n.png" }"#,
+    ] {
+        let body = quad_scene(material).replace(
+            "material = { emission = 2.0 }",
+            &format!("material = {material}"),
+        );
+        let scene = load(&body, &files);
+        let plan = Plan::new(&scene, &IntegratorSettings::default());
+        assert!(plan.kernel.shapes, "{material}");
+        for backend in Backend::available() {
+            let a = render_with(&scene, backend, None, 2);
+            let b = render_with(&scene, backend, Some(Kernel::GENERAL), 2);
+            assert_eq!(bits(&a), bits(&b), "{material} on {backend}");
+            assert_eq!(a.nonfinite.count, 0, "{material} on {backend}");
+        }
+    }
+}

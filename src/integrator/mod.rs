@@ -78,6 +78,10 @@ pub struct PathTracer<'a> {
     settings: IntegratorSettings,
     /// Per material: its Lambertian albedo (the diffuse-only kernels' table).
     albedo: Vec<Vec3>,
+    /// Some material has a normal or bump map (checked before any hit looks
+    /// its material up for one, so scenes without maps pay a branch only in
+    /// the `shapes` kernels).
+    normal_maps: bool,
     kernel: Kernel,
     trace_fn: TraceFn<'a>,
 }
@@ -114,6 +118,7 @@ impl<'a> PathTracer<'a> {
                 .iter()
                 .map(|m| m.albedo().unwrap_or(Vec3::ZERO))
                 .collect(),
+            normal_maps: scene.materials.iter().any(|m| m.maps.perturbs_normal()),
             kernel,
             trace_fn: select_kernel(kernel),
         }

@@ -133,6 +133,7 @@ impl SceneBuilder {
                 meshes: Vec::new(),
                 tri_uv: Vec::new(),
                 tri_shading_normals: Vec::new(),
+                tri_dpduv: Vec::new(),
                 spheres: Vec::new(),
                 sphere_material: Vec::new(),
                 environment: None,
@@ -502,6 +503,7 @@ impl SceneBuilder {
             light.position = (p - origin).as_vec3();
             self.scene.point_lights.push(light);
         }
+        self.scene.tri_dpduv = super::maps::uv_derivatives(&self.scene);
         let s = &self.scene;
         let emits = |m: u32| s.materials[m as usize].emission.max_element() > 0.0;
         let lit = s.tri_material.iter().any(|&m| emits(m))

@@ -177,6 +177,13 @@ pub struct Scene {
     /// some mesh has them: empty, or one entry per triangle, with zero
     /// vectors for triangles shaded flat.
     pub tri_shading_normals: Vec<[Vec3; 3]>,
+    /// Per triangle, the derivatives `[dp/du, dp/dv]` of the position with
+    /// respect to the texture coordinates (the tangent frame of normal and
+    /// bump maps), when some material needs them: empty, or one entry per
+    /// triangle (zeros for triangles whose material needs none, or whose
+    /// UVs are degenerate). Computed once by the builder
+    /// ([`maps::uv_derivatives`]); read through [`Scene::uv_derivatives`].
+    pub tri_dpduv: Vec<[Vec3; 2]>,
     /// Analytic spheres; sphere `i` is primitive `triangle_count() + i`.
     pub spheres: Vec<Sphere>,
     /// Material index per sphere.
@@ -335,6 +342,24 @@ impl Scene {
                     1.0 - theta / std::f32::consts::PI,
                 )
             }
+        }
+    }
+
+    /// The derivatives `[dp/du, dp/dv]` of the surface position with respect
+    /// to the texture coordinates at `sp` on primitive `prim`: from the
+    /// builder's per-triangle table, or on a sphere from its UV mapping
+    /// ([`Scene::uv`]). `None` where they are degenerate (a triangle with
+    /// degenerate UVs, a sphere's poles) or were not computed (a triangle
+    /// whose material has no normal or bump map): the caller then builds a
+    /// frame around the normal alone.
+    pub fn uv_derivatives(&self, prim: u32, sp: &SurfacePoint) -> Option<[Vec3; 2]> {
+        match self.sphere(prim) {
+            None => self
+                .tri_dpduv
+                .get(prim as usize)
+                .filter(|d| d[0] != Vec3::ZERO && d[1] != Vec3::ZERO)
+                .copied(),
+            Some(s) => maps::sphere_uv_derivatives(s.radius, sp.n),
         }
     }
 
