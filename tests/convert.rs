@@ -200,7 +200,13 @@ fn the_output_must_be_toml_in_an_existing_folder() {
 #[test]
 fn mitsuba_and_ply_scenes_round_trip_to_the_same_bits() {
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mitsuba");
-    for name in ["cbox.xml", "lights.xml", "envmap.xml", "floor.ply"] {
+    for name in [
+        "cbox.xml",
+        "lights.xml",
+        "envmap.xml",
+        "maps.xml",
+        "floor.ply",
+    ] {
         round_trip(&data.join(name));
     }
 }

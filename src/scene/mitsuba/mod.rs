@@ -74,7 +74,8 @@ struct Loader<'a, 'i> {
     dir: PathBuf,
     defaults: HashMap<String, String>,
     ids: HashMap<String, Node<'a, 'i>>,
-    textures: HashMap<PathBuf, Arc<ImageTexture>>,
+    /// Loaded bitmaps by file and `raw` flag.
+    textures: HashMap<(PathBuf, bool), Arc<ImageTexture>>,
     warnings: Vec<String>,
     doc: &'a Document<'i>,
 }
