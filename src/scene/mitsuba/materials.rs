@@ -9,7 +9,9 @@
 //! `alpha`. As in Mitsuba, a PNG is decoded from sRGB unless `raw` is true,
 //! whatever the parameter (a normal map without `raw` is decoded too).
 //! `normalmap` (its `normalmap` texture) and `bumpmap` (any nested texture,
-//! `scale`) wrap one BSDF, whose material they give the map.
+//! `scale`) wrap one BSDF, whose material they give the map; their
+//! `use_shadowing_function` is not modelled (a warning unless false) and
+//! `flip_invalid_normals` is read and ignored.
 
 use super::Loader;
 use super::params::{Params, Value};
@@ -247,6 +249,21 @@ impl<'a, 'i> Loader<'a, 'i> {
                 }
                 let t = self.texture(map)?;
                 let scale = p.number("scale").map_or(1.0, |v| v.0) as f32;
+                // Mitsuba 3.7 added a terminator shadowing term (Conty
+                // Estevez et al. 2019), on by default, which darkens
+                // grazing light by about 1 % on a gently mapped floor;
+                // embertrace has none. Its `flip_invalid_normals` folds an
+                // invalid normal, where embertrace bends it towards the
+                // viewer (the smooth-normal rule): read, not warned about.
+                if p.boolean("use_shadowing_function").is_none_or(|v| v.0) {
+                    self.warn(
+                        node,
+                        format!(
+                            "{kind}: Mitsuba's use_shadowing_function (on by default) is not modelled; set it to false to compare"
+                        ),
+                    );
+                }
+                p.boolean("flip_invalid_normals");
                 if !scale.is_finite() {
                     return Err(self.fail(node, format!("bumpmap: `scale` {scale} is not finite")));
                 }

@@ -118,15 +118,15 @@ def png(name, img):
 
 def maps_pngs():
     """maps.xml's raw maps. normals.png (16 x 16): a tangent-space normal
-    tilted up to about 17 degrees, varying along both axes, so a flipped
+    tilted up to about 14 degrees, varying along both axes, so a flipped
     tangent or bitangent shows; encoded (n + 1) / 2. roughness.png (8 x 8):
     GGX alpha from 0.05 to 0.5, rising along x and y. bumps.png (32 x 32):
     heights 0.5 + 0.5 sin(4 pi u) cos(2 pi v)."""
     n = np.zeros((16, 16, 3))
     for y in range(16):
         for x in range(16):
-            sx = 0.3 * math.sin(2 * math.pi * (x + 0.5) / 16)
-            sy = 0.2 * math.cos(2 * math.pi * (y + 0.5) / 16)
+            sx = 0.2 * math.sin(2 * math.pi * (x + 0.5) / 16)
+            sy = 0.15 * math.cos(2 * math.pi * (y + 0.5) / 16)
             v = np.array([sx, sy, 1.0])
             n[y, x] = np.round(255 * (v / np.linalg.norm(v) + 1) / 2)
     png("normals.png", n)
