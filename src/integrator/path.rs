@@ -700,6 +700,34 @@ impl<'a> PathTracer<'a> {
         })
     }
 
+    /// The denoiser's auxiliary values along camera ray `ray`: `(albedo,
+    /// normal)` (see [`super::Auxiliary`] for the definitions). Runs the
+    /// general rules (spheres, smooth normals, maps, textures) whatever the
+    /// kernel, so it needs no plan.
+    pub(super) fn auxiliary_values(&self, ray: &Ray) -> (Vec3, Vec3) {
+        let mut ray = *ray;
+        let mut normal = None;
+        for _ in 0..super::AUX_DELTA_CHAIN {
+            let Some(hit) = self.accel.intersect(&ray) else {
+                let env = self.lights.environment(ray.d).clamp(Vec3::ZERO, Vec3::ONE);
+                return (env, normal.unwrap_or(Vec3::ZERO));
+            };
+            let its = self.interaction::<true>(&ray, &hit);
+            let normal = *normal.get_or_insert(its.ns);
+            let sh = self.shading_point::<Bsdf, true, true>(its);
+            if !sh.bsdf.is_delta() {
+                return (super::reflectance(&sh.bsdf), normal);
+            }
+            // a delta surface: on along its first lobe
+            let Some(bs) = sh.bsdf.sample(sh.wo_local, Vec2::new(0.0, 0.5)) else {
+                return (Vec3::ONE, normal);
+            };
+            let wi = sh.frame.to_world(bs.wi);
+            ray = spawn_ray(&its.sp, wi);
+        }
+        (Vec3::ONE, normal.unwrap_or(Vec3::ZERO))
+    }
+
     /// Emission leaving the surface towards the viewer.
     fn zero_bounce_radiance(&self, its: &Interaction) -> Vec3 {
         self.emitted(its)
