@@ -163,6 +163,8 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         meshes,
         tri_uv,
         tri_shading_normals,
+        // derived from the positions, UVs and materials hashed here
+        tri_dpduv: _,
         spheres,
         sphere_material,
         instances,

@@ -100,10 +100,17 @@ impl Inputs {
         let mut inputs = Inputs::new();
         let name = scene.source.display().to_string();
         inputs.add(&scene.source, "the scene file");
+        // every texture: textured parameters, normal and bump maps
         let mut textures: Vec<&Path> = scene
             .materials
             .iter()
-            .filter_map(|m| m.texture.as_ref()?.source())
+            .flat_map(|m| {
+                let maps = m.textured().into_iter().map(|(_, t)| t);
+                let normal = m.maps.normal.as_ref();
+                let bump = m.maps.bump.as_ref().map(|b| &b.texture);
+                maps.chain(normal).chain(bump)
+            })
+            .filter_map(|t| t.source())
             .collect();
         textures.sort();
         textures.dedup();

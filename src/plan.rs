@@ -40,8 +40,11 @@ pub struct Kernel {
     /// Emissive surfaces (area lights); off: a hit is never looked up for
     /// emission and, with no environment either, no MIS weight is computed.
     pub emitters: bool,
-    /// Spheres, smooth normals or instances; off: every hit is a
-    /// flat-shaded triangle of the scene's own arrays.
+    /// Spheres, smooth normals, normal or bump maps, or instances: a
+    /// shading normal that may differ from the geometric one, with the side
+    /// checks against the geometric normal that keep light from crossing
+    /// the surface, and hits resolved through the instances; off: every hit
+    /// is a flat-shaded triangle of the scene's own arrays.
     pub shapes: bool,
     /// A thin-lens camera; off: camera rays come from the pinhole, with no
     /// lens sample drawn.
@@ -69,7 +72,10 @@ impl Kernel {
             (self.delta, "delta-lobe and delta-light checks"),
             (self.environment, "environment lookups on escape"),
             (self.emitters, "emission lookups at hits"),
-            (self.shapes, "sphere, smooth-normal and instance shading"),
+            (
+                self.shapes,
+                "sphere, smooth-normal, normal/bump-map and instance shading",
+            ),
             (self.lens, "lens sampling"),
         ]
         .iter()
@@ -102,7 +108,7 @@ impl Kernel {
 
 /// The effect names, in the order `plan` lists them. These names are fixed:
 /// scripts read them from `plan --json` and from the render report.
-pub const EFFECTS: [&str; 19] = [
+pub const EFFECTS: [&str; 21] = [
     "diffuse",
     "mirror",
     "glass",
@@ -125,6 +131,8 @@ pub const EFFECTS: [&str; 19] = [
     "instancing",
     "many_lights",
     "spot_light",
+    "normal_map",
+    "bump_map",
 ];
 
 /// Which kernel to run (`--plan`).
@@ -218,8 +226,11 @@ impl Plan {
         };
         let textured: Vec<String> = used_materials
             .iter()
-            .filter(|m| m.texture.is_some())
-            .map(|m| format!("`{}`", m.name))
+            .flat_map(|m| {
+                m.textured()
+                    .into_iter()
+                    .map(|(key, _)| format!("`{}` {key}", m.name))
+            })
             .collect();
         let emitters: Vec<String> = used_materials
             .iter()
@@ -293,8 +304,8 @@ impl Plan {
         add(
             "texture",
             textured,
-            "textured materials",
-            "bilinear albedo lookup at the hit's UV (texture.rs)",
+            "textured parameters",
+            "bilinear lookups of the textured parameters at the hit's UV (texture.rs, scene/maps.rs)",
         );
         add(
             "area_light",
@@ -421,6 +432,25 @@ impl Plan {
             "spot lights",
             "delta light samples with Mitsuba's falloff, MIS weight 1 (light/spot.rs)",
         );
+        let mapped = |f: fn(&crate::scene::Maps) -> bool| -> Vec<String> {
+            used_materials
+                .iter()
+                .filter(|m| f(&m.maps))
+                .map(|m| format!("`{}`", m.name))
+                .collect()
+        };
+        add(
+            "normal_map",
+            mapped(|m| m.normal.is_some()),
+            "materials with a normal_map",
+            "tangent-space normal lookup in a UV tangent frame, side checks against ng (integrator/path.rs, scene/maps.rs)",
+        );
+        add(
+            "bump_map",
+            mapped(|m| m.bump.is_some()),
+            "materials with a bump_map",
+            "height-gradient lookup, perturbed dp/du x dp/dv normal, side checks against ng (integrator/path.rs, texture.rs)",
+        );
         let finite_lights = finite_light_count(scene);
         let bvh = settings.light_sampler.picks_bvh(finite_lights);
         if let Some(e) = effects.iter_mut().find(|e| e.name == "many_lights") {
@@ -454,7 +484,11 @@ impl Plan {
                 || on("directional_light"),
             environment: on("environment") || on("environment_map"),
             emitters: on("area_light"),
-            shapes: on("sphere") || on("smooth_normals") || on("instancing"),
+            shapes: on("sphere")
+                || on("smooth_normals")
+                || on("normal_map")
+                || on("bump_map")
+                || on("instancing"),
             lens: on("thin_lens"),
         };
         Plan { effects, kernel }

@@ -403,3 +403,57 @@ fn render_tile(
         clamp,
     }
 }
+
+/// The denoiser's auxiliary images ([`crate::integrator::Auxiliary`]), per
+/// pixel row-major from the top: albedo and shading normal.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AuxiliaryImages {
+    /// Mean first-hit albedo per pixel.
+    pub albedo: Vec<[f64; 3]>,
+    /// Mean first-hit shading normal per pixel (not renormalised: a pixel
+    /// that straddles an edge averages its normals, as OIDN expects).
+    pub normal: Vec<[f64; 3]>,
+}
+
+/// Salt that keeps the auxiliary rays' stream apart from the image's.
+const AUX_SALT: u64 = 0x6175_7869_6c69_6172;
+
+/// The auxiliary images of a `resolution` render: each pixel the mean of
+/// [`PathTracer::auxiliary`] over `spp` camera rays through it, jittered
+/// (and lens-sampled) from the independent stream of (`seed`, pixel,
+/// sample), summed in sample order in `f64`. Each pixel is computed by one
+/// thread from its own streams, so the images are the same bits for any
+/// thread count.
+pub fn render_auxiliary(
+    tracer: &PathTracer<'_>,
+    camera: &Camera,
+    resolution: [u32; 2],
+    spp: u32,
+    seed: u64,
+) -> AuxiliaryImages {
+    let [w, h] = resolution;
+    let spp = spp.max(1);
+    let pixels: Vec<([f64; 3], [f64; 3])> = (0..w as u64 * h as u64)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = ((i % w as u64) as f32, (i / w as u64) as f32);
+            let (mut a, mut n) = ([0.0f64; 3], [0.0f64; 3]);
+            for s in 0..spp as u64 {
+                let mut sampler = Sampler::new(seed ^ AUX_SALT, i, s);
+                let jitter = sampler.next_2d();
+                let ray = tracer.camera_ray(camera, Vec2::new(x, y) + jitter, &mut sampler);
+                let aux = tracer.auxiliary(&ray);
+                for c in 0..3 {
+                    a[c] += aux.albedo[c] as f64;
+                    n[c] += aux.normal[c] as f64;
+                }
+            }
+            let k = 1.0 / spp as f64;
+            (a.map(|v| v * k), n.map(|v| v * k))
+        })
+        .collect();
+    AuxiliaryImages {
+        albedo: pixels.iter().map(|p| p.0).collect(),
+        normal: pixels.iter().map(|p| p.1).collect(),
+    }
+}

@@ -3,7 +3,10 @@
 //! Files: PNG (8 or 16 bits per channel, grey or colour; alpha is ignored) is
 //! taken to be sRGB-encoded and decoded to linear RGB with the exact sRGB
 //! transfer function (IEC 61966-2-1: `c / 12.92` up to 0.04045, else
-//! `((c + 0.055) / 1.055)^2.4`). OpenEXR is linear already and is read as it
+//! `((c + 0.055) / 1.055)^2.4`), unless it is loaded *raw*
+//! ([`ImageTexture::load_as`]), as Mitsuba's `bitmap` with `raw = true`: its
+//! stored values scaled to `[0, 1]` and nothing more (for data that is not a
+//! colour: roughness, normal and bump maps). OpenEXR is linear already and is read as it
 //! is (the R, G and B channels of its first layer). The format is chosen by the
 //! file's extension; anything else is an error, as are files that do not
 //! decode, images of zero size, and texels that are not finite or negative.
@@ -14,11 +17,18 @@
 //! the image, `v = 0` its bottom edge and `v = 1` its top edge: texel `(x, y)`
 //! (row `y = 0` at the top) has its centre at `((x + 0.5) / w, 1 - (y + 0.5) / h)`.
 //! Lookup is bilinear between the four nearest texel centres, with wrap
-//! (repeat) addressing in both `u` and `v`, so a texture tiles the plane.
+//! (repeat) addressing in both `u` and `v`, so a texture tiles the plane. An
+//! image whose texels are all equal returns that texel exactly (bilinear
+//! weights need not sum to exactly 1 in `f32`), so a constant texture gives
+//! the same bits as the constant.
+//!
+//! A scalar parameter (roughness) reads [`ImageTexture::eval_scalar`]: the
+//! value of a grey image, otherwise the luminance of the colour, as Mitsuba's
+//! `bitmap` answers `eval_1` on an RGB image.
 
 use crate::error::{Error, Result};
-use crate::image::{read_exr, read_png};
-use crate::math::{Vec2, Vec3};
+use crate::image::{read_exr, read_png_as};
+use crate::math::{Vec2, Vec3, luminance};
 use std::path::{Path, PathBuf};
 
 /// A linear-RGB image, row 0 at the top.
@@ -29,6 +39,14 @@ pub struct ImageTexture {
     texels: Vec<Vec3>,
     /// The file it was read from, if any.
     source: Option<PathBuf>,
+    /// A PNG read without sRGB decoding.
+    raw: bool,
+    /// The mean texel.
+    mean: Vec3,
+    /// The texel, when every texel is the same.
+    uniform: Option<Vec3>,
+    /// Every texel has three equal channels.
+    grey: bool,
 }
 
 /// Two textures are equal when their texels are, wherever they were read.
@@ -41,6 +59,12 @@ impl PartialEq for ImageTexture {
 impl ImageTexture {
     /// Load a texture from a `.png` (sRGB) or `.exr` (linear) file.
     pub fn load(path: &Path) -> Result<Self> {
+        Self::load_as(path, false)
+    }
+
+    /// Load a texture; with `raw`, a PNG's values are taken as they are
+    /// (linear) instead of decoded from sRGB. EXR is linear either way.
+    pub fn load_as(path: &Path, raw: bool) -> Result<Self> {
         if path.is_dir() {
             return Err(Error::input(
                 path,
@@ -53,7 +77,7 @@ impl ImageTexture {
             .and_then(|e| e.to_str())
             .map(str::to_ascii_lowercase);
         let (width, height, rgb) = match ext.as_deref() {
-            Some("png") => read_png(path)?,
+            Some("png") => read_png_as(path, raw)?,
             Some("exr") => read_exr(path)?,
             _ => {
                 return Err(Error::input(
@@ -69,6 +93,7 @@ impl ImageTexture {
         })?;
         Ok(ImageTexture {
             source: Some(path.to_path_buf()),
+            raw,
             ..texture
         })
     }
@@ -101,12 +126,32 @@ impl ImageTexture {
             }
             texels.push(t);
         }
+        let sum = texels
+            .iter()
+            .fold(crate::math::DVec3::ZERO, |s, t| s + t.as_dvec3());
+        let mean = (sum / n as f64).as_vec3();
+        let uniform = texels.iter().all(|t| *t == texels[0]).then_some(texels[0]);
+        let grey = texels.iter().all(|t| t.x == t.y && t.y == t.z);
         Ok(ImageTexture {
             width,
             height,
             texels,
             source: None,
+            raw: false,
+            mean,
+            uniform,
+            grey,
         })
+    }
+
+    /// Whether a PNG was read raw (not decoded from sRGB).
+    pub fn is_raw(&self) -> bool {
+        self.raw
+    }
+
+    /// The mean of the texels (an emission texture's power uses it).
+    pub fn mean(&self) -> Vec3 {
+        self.mean
     }
 
     /// The file the texture was read from (`None` for one made in code).
@@ -156,6 +201,9 @@ impl ImageTexture {
         if !uv.is_finite() {
             return Vec3::ZERO;
         }
+        if let Some(c) = self.uniform {
+            return c;
+        }
         // continuous texel coordinates, texel centres at integers
         let s = uv.x as f64 * self.width as f64 - 0.5;
         let t = (1.0 - uv.y as f64) * self.height as f64 - 0.5;
@@ -171,6 +219,53 @@ impl ImageTexture {
         let (a, b) = (texel(x0, y0), texel(x1, y0));
         let (c, d) = (texel(x0, y1), texel(x1, y1));
         (1.0 - fy) * ((1.0 - fx) * a + fx * b) + fy * ((1.0 - fx) * c + fx * d)
+    }
+
+    /// The smallest value [`ImageTexture::eval_scalar`] can return (bilinear
+    /// lookup stays within the texels' range).
+    pub fn min_scalar(&self) -> f32 {
+        self.texels
+            .iter()
+            .map(|&c| if self.grey { c.x } else { luminance(c) })
+            .fold(f32::INFINITY, f32::min)
+    }
+
+    /// The gradient `(d/du, d/dv)` at `uv` of [`ImageTexture::eval_scalar`]
+    /// (a bump map's slope): the derivative of the bilinear interpolant, so
+    /// within a cell the difference of neighbouring texels along one axis,
+    /// weighted by the other axis' bilinear weights, times the resolution
+    /// (as Mitsuba 3's `bitmap` computes `eval_1_grad`). `v` points up
+    /// while rows go down, hence the sign of `d/dv`. Zero for a non-finite
+    /// coordinate and for a uniform texture.
+    pub fn eval_scalar_grad(&self, uv: Vec2) -> Vec2 {
+        if !uv.is_finite() || self.uniform.is_some() {
+            return Vec2::ZERO;
+        }
+        let s = uv.x as f64 * self.width as f64 - 0.5;
+        let t = (1.0 - uv.y as f64) * self.height as f64 - 0.5;
+        let (x0, y0) = (crate::math::floor_f64(s), crate::math::floor_f64(t));
+        let (fx, fy) = ((s - x0) as f32, (t - y0) as f32);
+        let (w, h) = (self.width as usize, self.height as usize);
+        let x0 = (x0 as i64).rem_euclid(w as i64) as usize;
+        let y0 = (y0 as i64).rem_euclid(h as i64) as usize;
+        let x1 = if x0 + 1 == w { 0 } else { x0 + 1 };
+        let y1 = if y0 + 1 == h { 0 } else { y0 + 1 };
+        let f = |x: usize, y: usize| {
+            let c = self.texels[y * w + x];
+            if self.grey { c.x } else { luminance(c) }
+        };
+        let (a, b) = (f(x0, y0), f(x1, y0));
+        let (c, d) = (f(x0, y1), f(x1, y1));
+        let ds = (1.0 - fy) * (b - a) + fy * (d - c);
+        let dt = (1.0 - fx) * (c - a) + fx * (d - b);
+        Vec2::new(ds * w as f32, -dt * h as f32)
+    }
+
+    /// A scalar at `uv`: the grey value of a grey image, otherwise the
+    /// luminance of [`ImageTexture::eval`].
+    pub fn eval_scalar(&self, uv: Vec2) -> f32 {
+        let c = self.eval(uv);
+        if self.grey { c.x } else { luminance(c) }
     }
 }
 
@@ -247,6 +342,53 @@ mod tests {
         assert_eq!(t.source(), Some(path.as_path()));
         let same = ImageTexture::from_linear_rgb(1, 1, t.texels()[0].to_array().to_vec());
         assert_eq!(same.unwrap(), t, "equal texels are equal textures");
+    }
+
+    #[test]
+    fn raw_png_is_not_decoded_and_constants_are_exact() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.png");
+        image::RgbImage::from_raw(2, 1, vec![51, 51, 51, 51, 51, 51])
+            .unwrap()
+            .save(&path)
+            .unwrap();
+        let t = ImageTexture::load_as(&path, true).unwrap();
+        assert!(t.is_raw());
+        assert_eq!(t.texel(0, 0), Vec3::splat(0.2));
+        for uv in [Vec2::new(0.1, 0.3), Vec2::new(0.37, 0.91)] {
+            assert_eq!(t.eval_scalar(uv), 0.2);
+        }
+        assert_eq!(t.mean(), Vec3::splat(0.2));
+        let srgb = ImageTexture::load(&path).unwrap();
+        assert_eq!(srgb.texel(0, 0), Vec3::splat(srgb_to_linear(0.2) as f32));
+        let colour = checker();
+        assert_eq!(colour.mean(), Vec3::new(0.5, 0.5, 0.5));
+        let c = colour.eval(Vec2::new(0.25, 0.75));
+        assert_eq!(colour.eval_scalar(Vec2::new(0.25, 0.75)), luminance(c));
+    }
+
+    #[test]
+    fn the_scalar_gradient_is_the_bilinear_slope() {
+        // a ramp along x: texel x holds x / 4; d/du = 1/4 per texel * 4 texels
+        let ramp: Vec<f32> = (0..8).flat_map(|i| [(i % 4) as f32 / 4.0; 3]).collect();
+        let t = ImageTexture::from_linear_rgb(4, 2, ramp).unwrap();
+        let g = t.eval_scalar_grad(Vec2::new(0.4, 0.3));
+        assert!((g.x - 1.0).abs() < 1e-6 && g.y == 0.0, "{g}");
+        // the same ramp along the rows, top row 0: the value falls as v rises
+        let col: Vec<f32> = (0..8).flat_map(|i| [(i / 2) as f32 / 4.0; 3]).collect();
+        let t = ImageTexture::from_linear_rgb(2, 4, col).unwrap();
+        let g = t.eval_scalar_grad(Vec2::new(0.3, 0.5));
+        assert!((g.y + 1.0).abs() < 1e-6 && g.x == 0.0, "{g}");
+        // finite differences of eval_scalar agree inside a cell
+        let c = checker();
+        let (uv, e) = (Vec2::new(0.4, 0.6), 1e-3);
+        let g = c.eval_scalar_grad(uv);
+        let du = (c.eval_scalar(uv + Vec2::X * e) - c.eval_scalar(uv - Vec2::X * e)) / (2.0 * e);
+        let dv = (c.eval_scalar(uv + Vec2::Y * e) - c.eval_scalar(uv - Vec2::Y * e)) / (2.0 * e);
+        assert!(
+            (g.x - du).abs() < 1e-2 && (g.y - dv).abs() < 1e-2,
+            "{g} {du} {dv}"
+        );
     }
 
     /// It said "Is a directory (os error 21)" after trying to decode it.

@@ -244,6 +244,7 @@ fn mitsuba_and_ply_scenes_round_trip_to_the_same_bits() {
         "lights.xml",
         "envmap.xml",
         "spot.xml",
+        "maps.xml",
         "floor.ply",
     ] {
         round_trip(&data.join(name));

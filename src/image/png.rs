@@ -61,6 +61,13 @@ pub fn write_png_rgb8(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Resul
 /// as sRGB-encoded and decodes it to linear RGB: `(width, height, rgb)`,
 /// row-major, top row first, 3 floats per pixel.
 pub fn read_png(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
+    read_png_as(path, false)
+}
+
+/// [`read_png`], or with `raw` the stored values as they are, scaled to
+/// `[0, 1]` and not decoded from sRGB (Mitsuba's `bitmap` with `raw = true`:
+/// normal maps, roughness maps and other data that is not a colour).
+pub fn read_png_as(path: &Path, raw: bool) -> Result<(u32, u32, Vec<f32>)> {
     let mut reader = ::image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
     reader.set_format(::image::ImageFormat::Png);
     let img = reader.decode().map_err(|e| match e {
@@ -70,7 +77,10 @@ pub fn read_png(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
     // 8-bit values v become 257 v exactly, so one 16-bit table serves both
     let img = img.into_rgb16();
     let lut: Vec<f32> = (0..=u16::MAX)
-        .map(|v| srgb_to_linear(v as f64 / u16::MAX as f64) as f32)
+        .map(|v| {
+            let c = v as f64 / u16::MAX as f64;
+            (if raw { c } else { srgb_to_linear(c) }) as f32
+        })
         .collect();
     let rgb = img.as_raw().iter().map(|&v| lut[v as usize]).collect();
     Ok((img.width(), img.height(), rgb))

@@ -46,6 +46,10 @@ pub struct Lights {
     select: Discrete,
     /// The light BVH, when the lights are chosen by it instead of `select`.
     bvh: Option<LightBvh>,
+    /// Some emissive material has an emission texture (then a light
+    /// sample's radiance is looked up at its point's UV; its power used the
+    /// texture's mean, [`crate::scene::Material::emission`]).
+    textured_emission: bool,
 }
 
 const NO_LIGHT: u32 = u32::MAX;
@@ -194,7 +198,14 @@ impl Lights {
             environment: scene.environment,
             environment_map: scene.environment_map.clone(),
             select: Discrete::new(&selection_weights(&weights)),
+            textured_emission: scene.materials.iter().any(|m| m.maps.emission.is_some()),
         }
+    }
+
+    /// Whether some emissive material has an emission texture.
+    #[inline]
+    pub fn has_textured_emission(&self) -> bool {
+        self.textured_emission
     }
 
     /// The area lights.
@@ -358,10 +369,12 @@ impl Lights {
         from: &SurfacePoint,
         u: Vec2,
     ) -> Option<LightSample> {
-        let (to, solid_angle_pdf, area) = match light.shape {
+        // `at`: the primitive and barycentrics of the point (for its UV)
+        let (to, solid_angle_pdf, area, at) = match light.shape {
             Emitter::Triangle => {
                 let b = square_to_uniform_triangle(u);
-                (scene.surface_point(light.prim, b.x, b.y), None, light.area)
+                let to = scene.surface_point(light.prim, b.x, b.y);
+                (to, None, light.area, (light.prim, b.x, b.y))
             }
             Emitter::Quad(q) => {
                 let spherical = q.spherical(from.p);
@@ -378,6 +391,7 @@ impl Lights {
                     scene.surface_point(prim, bu, bv),
                     spherical.map(|sr| (1.0 / sr.solid_angle()) as f32),
                     2.0 * q.areas[k],
+                    (prim, bu, bv),
                 )
             }
             Emitter::Sphere { center, radius } => match sphere_cone(center, radius, from.p) {
@@ -387,6 +401,7 @@ impl Lights {
                         SurfacePoint::on_sphere(center, radius, p),
                         Some(cone.pdf()),
                         light.area,
+                        (light.prim, 0.0, 0.0),
                     )
                 }
                 None => {
@@ -395,6 +410,7 @@ impl Lights {
                         SurfacePoint::on_sphere(center, radius, center + radius * n),
                         None,
                         light.area,
+                        (light.prim, 0.0, 0.0),
                     )
                 }
             },
@@ -417,9 +433,15 @@ impl Lights {
         if !(pdf > 0.0) || !pdf.is_finite() {
             return None;
         }
+        let mut li = light.le;
+        if self.textured_emission {
+            if let Some(t) = &scene.material(light.prim).maps.emission {
+                li = t.eval(scene.uv(at.0, &to, at.1, at.2));
+            }
+        }
         Some(LightSample {
             wi,
-            li: light.le,
+            li,
             pdf,
             delta: false,
             shadow: spawn_ray_to(from, &to),

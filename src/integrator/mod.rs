@@ -79,8 +79,52 @@ pub struct PathTracer<'a> {
     settings: IntegratorSettings,
     /// Per material: its Lambertian albedo (the diffuse-only kernels' table).
     albedo: Vec<Vec3>,
+    /// Some material has a normal or bump map (checked before any hit looks
+    /// its material up for one, so scenes without maps pay a branch only in
+    /// the `shapes` kernels).
+    normal_maps: bool,
     kernel: Kernel,
     trace_fn: TraceFn<'a>,
+}
+
+/// The most delta surfaces [`PathTracer::auxiliary`] follows.
+const AUX_DELTA_CHAIN: usize = 8;
+
+/// What a denoiser (Intel Open Image Denoise, OptiX) takes besides the noisy
+/// image, for one camera ray: the first hit's albedo and shading normal.
+///
+/// - `albedo`, as OIDN defines it: the reflectance of the first non-delta
+///   surface along the ray, following delta surfaces (mirror, glass, smooth
+///   metal) along their first lobe (a mirror's reflection; glass's
+///   reflection, the lobe the number 0 picks); 1 after
+///   [`AUX_DELTA_CHAIN`] delta surfaces; where the ray escapes, the
+///   environment's radiance clamped to `[0, 1]`. A surface's reflectance is
+///   its diffuse albedo (textures applied), a plastic's base albedo, a phong
+///   material's `diffuse + specular` clamped to 1, a rough metal's Fresnel
+///   reflectance at normal incidence.
+/// - `normal`: the first hit's shading normal (smooth normals, normal and
+///   bump maps applied), world space, facing the camera; zero on a miss.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Auxiliary {
+    /// First non-delta hit's reflectance.
+    pub albedo: Vec3,
+    /// First hit's shading normal.
+    pub normal: Vec3,
+}
+
+/// The reflectance [`Auxiliary::albedo`] reports for a non-delta BSDF.
+fn reflectance(b: &crate::bsdf::Bsdf) -> Vec3 {
+    use crate::bsdf::Bsdf;
+    match b {
+        Bsdf::Diffuse(d) => d.albedo,
+        Bsdf::Plastic(p) => p.diffuse(),
+        Bsdf::Phong(p) => (p.diffuse + p.specular).min(Vec3::ONE),
+        Bsdf::Conductor(c) => {
+            crate::bsdf::fresnel::fr_conductor(1.0, c.eta, c.k).clamp(Vec3::ZERO, Vec3::ONE)
+        }
+        Bsdf::Mirror(m) => m.reflectance,
+        Bsdf::Glass(g) => g.reflectance,
+    }
 }
 
 /// A shading normal may not leave `wo` closer to the surface than this
@@ -115,6 +159,7 @@ impl<'a> PathTracer<'a> {
                 .iter()
                 .map(|m| m.albedo().unwrap_or(Vec3::ZERO))
                 .collect(),
+            normal_maps: scene.materials.iter().any(|m| m.maps.perturbs_normal()),
             kernel,
             trace_fn: select_kernel(kernel),
         }
@@ -149,6 +194,12 @@ impl<'a> PathTracer<'a> {
         for chunk in lanes.chunks_mut(BATCH) {
             (self.trace_fn)(self, chunk, rays);
         }
+    }
+
+    /// The denoiser's auxiliary values along camera ray `ray` ([`Auxiliary`]).
+    pub fn auxiliary(&self, ray: &Ray) -> Auxiliary {
+        let (albedo, normal) = self.auxiliary_values(ray);
+        Auxiliary { albedo, normal }
     }
 
     /// The camera ray for film position `p`: a lens sample is drawn only by a

@@ -23,7 +23,7 @@
 use super::{PathTracer, RayCounts};
 use crate::accel::{Coherence, Hit};
 use crate::bsdf::{Bsdf, Bxdf, Diffuse, Phong};
-use crate::math::{Frame, Ray, SurfacePoint, Vec3, gamma, spawn_ray};
+use crate::math::{Frame, Ray, SurfacePoint, Vec2, Vec3, gamma, spawn_ray};
 use crate::sampler::Sampler;
 use crate::sampling::power_heuristic;
 use crate::settings::{DirectStrategy, Roulette};
@@ -132,19 +132,26 @@ impl KernelBsdf for Bsdf {
     #[inline]
     fn at(tracer: &PathTracer<'_>, its: &Interaction, m: usize) -> Self {
         let material = &tracer.scene.materials[m];
-        let Some(t) = &material.texture else {
+        if material.texture.is_none() && !material.maps.textures_bsdf() {
             return material.bsdf;
-        };
-        let uv = tracer.scene.uv(its.prim, &its.sp, its.u, its.v);
-        let albedo = t.eval(uv).clamp(Vec3::ZERO, Vec3::ONE);
-        match &material.bsdf {
-            Bsdf::Plastic(p) => Bsdf::Plastic(p.with_diffuse(albedo)),
-            Bsdf::Phong(p) => Bsdf::Phong(Phong {
-                diffuse: albedo,
-                ..*p
-            }),
-            _ => Bsdf::Diffuse(Diffuse { albedo }),
         }
+        let uv = tracer.scene.uv(its.prim, &its.sp, its.u, its.v);
+        let mut bsdf = match &material.texture {
+            None => material.bsdf,
+            Some(t) => {
+                let albedo = t.eval(uv).clamp(Vec3::ZERO, Vec3::ONE);
+                match &material.bsdf {
+                    Bsdf::Plastic(p) => Bsdf::Plastic(p.with_diffuse(albedo)),
+                    Bsdf::Phong(p) => Bsdf::Phong(Phong {
+                        diffuse: albedo,
+                        ..*p
+                    }),
+                    _ => Bsdf::Diffuse(Diffuse { albedo }),
+                }
+            }
+        };
+        material.maps.apply(&mut bsdf, uv);
+        bsdf
     }
 }
 
@@ -314,7 +321,7 @@ impl<'a> PathTracer<'a> {
             let (le, light_pdf) = match &its {
                 None if ENVIRONMENT => self.lights.environment_and_pdf(wi),
                 Some(n) if EMITTERS => (
-                    self.lights.le(self.scene, n.prim, n.sp.n, n.wo),
+                    self.emitted(n),
                     // the density light sampling had, from where it sampled
                     self.lights.pdf_area(&prev.from, n.prim, &n.sp),
                 ),
@@ -544,7 +551,7 @@ impl<'a> PathTracer<'a> {
         let wo = -ray.d;
         let ng = if sp.n.dot(wo) < 0.0 { -sp.n } else { sp.n };
         let ns = if SHAPES {
-            self.shading_normal(hit, ng, wo)
+            self.shading_normal(hit, &sp, ng, wo)
         } else {
             ng
         };
@@ -562,21 +569,40 @@ impl<'a> PathTracer<'a> {
     /// The smooth-shading rule. A triangle whose three corners have vertex
     /// normals gets their barycentric interpolation (corners face the
     /// triangle's front, see the scene builder), turned to `ng`'s side; any
-    /// other hit shades with `ng`. If `wo` would fall below the shading
-    /// normal's horizon (closer than [`super::MIN_SHADING_COS`]), the normal
-    /// is bent towards `wo` until it is not, so no view sees a black
-    /// terminator.
-    fn shading_normal(&self, hit: &Hit, ng: Vec3, wo: Vec3) -> Vec3 {
-        let Some(c) = self.corner_normals(hit.prim) else {
-            return ng;
+    /// other hit shades with `ng`. A material with a normal or bump map then
+    /// perturbs that normal ([`PathTracer::mapped_normal`]). If `wo` would
+    /// fall below the shading normal's horizon (closer than
+    /// [`super::MIN_SHADING_COS`]), the normal is bent towards `wo` until it
+    /// is not, so no view sees a black terminator; a normal that ends up
+    /// below the geometric surface gives way to `ng`. Whatever the normal,
+    /// the `shapes` kernels' side checks against `ng` keep light from
+    /// crossing the geometric surface.
+    fn shading_normal(&self, hit: &Hit, sp: &SurfacePoint, ng: Vec3, wo: Vec3) -> Vec3 {
+        let mapped = self.normal_maps && self.scene.material(hit.prim).maps.perturbs_normal();
+        let smooth = self.corner_normals(hit.prim);
+        let mut n = match smooth {
+            None if !mapped => return ng,
+            None => ng,
+            Some(c) => {
+                let b0 = 1.0 - hit.u - hit.v;
+                let n = (b0 * c[0] + hit.u * c[1] + hit.v * c[2]).normalize_or_zero();
+                if n == Vec3::ZERO {
+                    if !mapped {
+                        return ng;
+                    }
+                    ng
+                } else if n.dot(ng) < 0.0 {
+                    -n
+                } else {
+                    n
+                }
+            }
         };
-        let b0 = 1.0 - hit.u - hit.v;
-        let mut n = (b0 * c[0] + hit.u * c[1] + hit.v * c[2]).normalize_or_zero();
-        if n == Vec3::ZERO {
-            return ng;
-        }
-        if n.dot(ng) < 0.0 {
-            n = -n;
+        if mapped {
+            n = self.mapped_normal(hit, sp, n, ng);
+            if n == Vec3::ZERO || n.dot(ng) <= 0.0 {
+                return ng;
+            }
         }
         let cos = n.dot(wo);
         if cos < super::MIN_SHADING_COS {
@@ -586,6 +612,54 @@ impl<'a> PathTracer<'a> {
             }
         }
         n
+    }
+
+    /// The shading normal `n` (on `ng`'s side) perturbed by the material's
+    /// normal or bump map, on `ng`'s side; zero when degenerate. Both maps
+    /// work on the front side (`sp.n`'s, as Mitsuba 3's `normalmap` and
+    /// `bumpmap` work in the shading frame before it is turned to the
+    /// viewer) and the result is turned back.
+    ///
+    /// The tangent frame: `s` is `dp/du` made orthogonal to the normal
+    /// (Gram-Schmidt), `t = n x s`; where the UVs are degenerate,
+    /// [`Frame::from_normal`]'s tangents stand in.
+    ///
+    /// - Normal map (Mitsuba's `normalmap`): texel `c`, read raw, is the
+    ///   normal `2 c - 1` in `(s, t, n)`, normalised.
+    /// - Bump map (Mitsuba's `bumpmap`): with the height's UV gradient
+    ///   `(g_u, g_v)` times `bump_scale` ([`crate::texture::ImageTexture::eval_scalar_grad`]),
+    ///   `dp/du' = dp/du + n (g_u - n . dp/du)`, likewise `dp/dv'`, and the
+    ///   normal is `dp/du' x dp/dv'` normalised, turned to the geometric
+    ///   normal's side. A zero gradient leaves `n` as it is (the formula
+    ///   gives `n` again, up to rounding); so do degenerate UVs, where the
+    ///   height has no slope on the surface.
+    fn mapped_normal(&self, hit: &Hit, sp: &SurfacePoint, n: Vec3, ng: Vec3) -> Vec3 {
+        let maps = &self.scene.material(hit.prim).maps;
+        let flip = if ng == sp.n { 1.0 } else { -1.0 };
+        let front = flip * n;
+        let uv = self.scene.uv(hit.prim, sp, hit.u, hit.v);
+        let d = self.scene.uv_derivatives(hit.prim, sp);
+        let mapped = if let Some(t) = &maps.normal {
+            let c = 2.0 * t.eval(uv) - Vec3::ONE;
+            let s = d
+                .map(|[dpdu, _]| (dpdu - front * front.dot(dpdu)).normalize_or_zero())
+                .filter(|s| *s != Vec3::ZERO)
+                .unwrap_or_else(|| Frame::from_normal(front).s);
+            let t = front.cross(s);
+            (c.x * s + c.y * t + c.z * front).normalize_or_zero()
+        } else if let Some(b) = &maps.bump {
+            let g = b.scale * b.texture.eval_scalar_grad(uv);
+            let Some([dpdu, dpdv]) = d.filter(|_| g != Vec2::ZERO && g.is_finite()) else {
+                return n;
+            };
+            let du = dpdu + front * (g.x - front.dot(dpdu));
+            let dv = dpdv + front * (g.y - front.dot(dpdv));
+            let m = du.cross(dv).normalize_or_zero();
+            if m.dot(sp.n) < 0.0 { -m } else { m }
+        } else {
+            return n;
+        };
+        flip * mapped
     }
 
     /// The vertex normals of triangle `prim`, when all three exist.
@@ -625,8 +699,50 @@ impl<'a> PathTracer<'a> {
         })
     }
 
+    /// The denoiser's auxiliary values along camera ray `ray`: `(albedo,
+    /// normal)` (see [`super::Auxiliary`] for the definitions). Runs the
+    /// general rules (spheres, smooth normals, maps, textures) whatever the
+    /// kernel, so it needs no plan.
+    pub(super) fn auxiliary_values(&self, ray: &Ray) -> (Vec3, Vec3) {
+        let mut ray = *ray;
+        let mut normal = None;
+        for _ in 0..super::AUX_DELTA_CHAIN {
+            let Some(hit) = self.accel.intersect(&ray) else {
+                let env = self.lights.environment(ray.d).clamp(Vec3::ZERO, Vec3::ONE);
+                return (env, normal.unwrap_or(Vec3::ZERO));
+            };
+            let its = self.interaction::<true>(&ray, &hit);
+            let normal = *normal.get_or_insert(its.ns);
+            let sh = self.shading_point::<Bsdf, true, true>(its);
+            if !sh.bsdf.is_delta() {
+                return (super::reflectance(&sh.bsdf), normal);
+            }
+            // a delta surface: on along its first lobe
+            let Some(bs) = sh.bsdf.sample(sh.wo_local, Vec2::new(0.0, 0.5)) else {
+                return (Vec3::ONE, normal);
+            };
+            let wi = sh.frame.to_world(bs.wi);
+            ray = spawn_ray(&its.sp, wi);
+        }
+        (Vec3::ONE, normal.unwrap_or(Vec3::ZERO))
+    }
+
     /// Emission leaving the surface towards the viewer.
     fn zero_bounce_radiance(&self, its: &Interaction) -> Vec3 {
-        self.lights.le(self.scene, its.prim, its.sp.n, its.wo)
+        self.emitted(its)
+    }
+
+    /// Radiance leaving the surface at `its` towards `wo`: the material's
+    /// emission, or its emission texture at the hit's UV.
+    #[inline]
+    fn emitted(&self, its: &Interaction) -> Vec3 {
+        let le = self.lights.le(self.scene, its.prim, its.sp.n, its.wo);
+        if !self.lights.has_textured_emission() || le == Vec3::ZERO {
+            return le;
+        }
+        match &self.scene.material(its.prim).maps.emission {
+            Some(t) => t.eval(self.scene.uv(its.prim, &its.sp, its.u, its.v)),
+            None => le,
+        }
     }
 }

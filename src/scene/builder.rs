@@ -163,6 +163,7 @@ impl SceneBuilder {
                 meshes: Vec::new(),
                 tri_uv: Vec::new(),
                 tri_shading_normals: Vec::new(),
+                tri_dpduv: Vec::new(),
                 spheres: Vec::new(),
                 sphere_material: Vec::new(),
                 instances: SceneInstances::default(),
@@ -277,12 +278,10 @@ impl SceneBuilder {
         }
         if mesh.uvs.is_empty() {
             let used = |m: usize| mesh.tri_material.iter().any(|&t| t as usize == m);
-            if let Some((_, m)) = mesh
-                .materials
-                .iter()
-                .enumerate()
-                .find(|(i, m)| m.texture.is_some() && used(*i))
-            {
+            if let Some((_, m)) = mesh.materials.iter().enumerate().find(|(i, m)| {
+                (m.texture.is_some() || !m.textured().is_empty() || m.maps.perturbs_normal())
+                    && used(*i)
+            }) {
                 return fail(format!(
                     "mesh `{}` has no texture coordinates (vt), but its material `{}` has a texture",
                     mesh.name, m.name
@@ -670,6 +669,7 @@ impl SceneBuilder {
             light.position = (p - origin).as_vec3();
             self.scene.spot_lights.push(light);
         }
+        self.scene.tri_dpduv = super::maps::uv_derivatives(&self.scene);
         let s = &self.scene;
         let lit = s.has_emitters()
             || s.point_lights

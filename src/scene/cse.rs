@@ -702,6 +702,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             emission,
             // the courses add emission whichever side is seen
             two_sided: emission != Vec3::ZERO,
+            maps: Default::default(),
         });
     }
     if let Some(line) = ignored_ambient {
@@ -748,6 +749,7 @@ pub fn load(path: &Path) -> Result<Scene> {
                 texture: None,
                 emission: *radiance,
                 two_sided: false,
+                maps: Default::default(),
             });
         }
         b.add_mesh_matrix(mesh, DAffine3::IDENTITY, quads.first().map(|q| q.2))?;

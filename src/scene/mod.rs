@@ -16,6 +16,7 @@ mod collada;
 mod cse;
 mod input;
 mod instances;
+mod maps;
 mod mesh;
 mod mitsuba;
 mod obj;
@@ -40,6 +41,7 @@ pub use builder::{SceneBuilder, WorldCamera, render_origin};
 use input::read_scene_text;
 pub(crate) use input::{Content, not_a_file, read_bounded};
 pub use instances::{NO_OVERRIDE, PrototypeShading, SceneInstances};
+pub use maps::{BumpMap, Maps};
 pub use mesh::{MeshData, Transform};
 pub use obj::load_obj_mesh;
 pub use ply::{MAX_POLYGON, load_ply_mesh};
@@ -56,11 +58,14 @@ pub struct Material {
     /// diffuse albedo of a `diffuse` BSDF or the base of a `plastic` one,
     /// looked up at the surface's texture coordinates.
     pub texture: Option<Arc<ImageTexture>>,
-    /// Emitted radiance (an area light when non-zero).
+    /// Emitted radiance (an area light when non-zero); the mean of
+    /// `maps.emission` when that is set.
     pub emission: Vec3,
     /// Emit from both sides (otherwise only from the front, where the
     /// triangle winds counter-clockwise or the sphere's normal points out).
     pub two_sided: bool,
+    /// Textures on the other parameters, and a normal or bump map.
+    pub maps: Maps,
 }
 
 impl Material {
@@ -79,6 +84,22 @@ impl Material {
             Bsdf::Diffuse(d) => Some(d.albedo),
             _ => None,
         }
+    }
+
+    /// The textured parameters, by the key scene files give them, with
+    /// their textures (the diffuse albedo's as `texture`).
+    pub fn textured(&self) -> Vec<(&'static str, &Arc<ImageTexture>)> {
+        let m = &self.maps;
+        [
+            ("texture", self.texture.as_ref()),
+            (Maps::specular_key(&self.bsdf), m.specular.as_ref()),
+            ("transmittance", m.transmittance.as_ref()),
+            ("alpha", m.alpha.as_ref()),
+            ("emission", m.emission.as_ref()),
+        ]
+        .into_iter()
+        .filter_map(|(k, t)| t.map(|t| (k, t)))
+        .collect()
     }
 
     /// The material's type as scene files spell it.
@@ -104,6 +125,7 @@ impl Default for Material {
             texture: None,
             emission: Vec3::ZERO,
             two_sided: false,
+            maps: Maps::default(),
         }
     }
 }
@@ -157,6 +179,13 @@ pub struct Scene {
     /// some mesh has them: empty, or one entry per triangle, with zero
     /// vectors for triangles shaded flat.
     pub tri_shading_normals: Vec<[Vec3; 3]>,
+    /// Per triangle, the derivatives `[dp/du, dp/dv]` of the position with
+    /// respect to the texture coordinates (the tangent frame of normal and
+    /// bump maps), when some material needs them: empty, or one entry per
+    /// triangle (zeros for triangles whose material needs none, or whose
+    /// UVs are degenerate). Computed once by the builder
+    /// ([`maps::uv_derivatives`]); read through [`Scene::uv_derivatives`].
+    pub tri_dpduv: Vec<[Vec3; 2]>,
     /// Analytic spheres; sphere `i` is primitive `triangle_count() + i`.
     pub spheres: Vec<Sphere>,
     /// Material index per sphere.
@@ -379,6 +408,31 @@ impl Scene {
                     1.0 - theta / std::f32::consts::PI,
                 )
             }
+        }
+    }
+
+    /// The derivatives `[dp/du, dp/dv]` of the surface position with respect
+    /// to the texture coordinates at `sp` on primitive `prim`: from the
+    /// builder's per-triangle table, or on a sphere from its UV mapping
+    /// ([`Scene::uv`]). `None` where they are degenerate (a triangle with
+    /// degenerate UVs, a sphere's poles) or were not computed (a triangle
+    /// whose material has no normal or bump map): the caller then builds a
+    /// frame around the normal alone.
+    pub fn uv_derivatives(&self, prim: u32, sp: &SurfacePoint) -> Option<[Vec3; 2]> {
+        if let Some((k, t)) = self.instanced(prim) {
+            // an instance's, from its render-space corners (per hit: a
+            // table per placement would grow with the placements)
+            let uv = self.instances.uv(k, t)?;
+            let d = maps::triangle_uv_derivatives(self.instances.triangle(k, t), uv);
+            return (d[0] != Vec3::ZERO && d[1] != Vec3::ZERO).then_some(d);
+        }
+        match self.sphere(prim) {
+            None => self
+                .tri_dpduv
+                .get(prim as usize)
+                .filter(|d| d[0] != Vec3::ZERO && d[1] != Vec3::ZERO)
+                .copied(),
+            Some(s) => maps::sphere_uv_derivatives(s.radius, sp.n),
         }
     }
 

@@ -283,6 +283,7 @@ fn convert_material(
         texture,
         emission: colour("Ke", m.emissive, Vec3::ZERO)?,
         two_sided: false,
+        maps: Default::default(),
     })
 }
 

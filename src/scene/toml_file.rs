@@ -44,7 +44,8 @@
 
 use super::procedural::{self, Shape};
 use super::{
-    Material, MeshData, Scene, SceneBuilder, Transform, WorldCamera, load_obj_mesh, load_ply_mesh,
+    BumpMap, Maps, Material, MeshData, Scene, SceneBuilder, Transform, WorldCamera, load_obj_mesh,
+    load_ply_mesh,
 };
 use crate::bsdf::{
     Bsdf, Conductor, Diffuse, Distribution, Glass, Lobe, Microfacet, Mirror, Phong, Plastic,
@@ -239,21 +240,24 @@ struct TransformToml {
 struct MaterialToml {
     #[serde(rename = "type")]
     kind: Option<String>,
-    diffuse: Option<Rgb>,
+    diffuse: Option<Param>,
     texture: Option<String>,
-    reflectance: Option<Rgb>,
-    transmittance: Option<Rgb>,
+    reflectance: Option<Param>,
+    transmittance: Option<Param>,
     ior: Option<f32>,
-    alpha: Option<f32>,
+    alpha: Option<Param>,
     eta: Option<Rgb>,
     k: Option<Rgb>,
     distribution: Option<String>,
     nonlinear: Option<bool>,
-    specular: Option<Rgb>,
+    specular: Option<Param>,
     shininess: Option<f32>,
     roughness: Option<f32>,
-    emission: Option<Rgb>,
+    emission: Option<Param>,
     two_sided: Option<bool>,
+    normal_map: Option<String>,
+    bump_map: Option<String>,
+    bump_scale: Option<f32>,
 }
 
 impl MaterialToml {
@@ -365,6 +369,60 @@ impl<'de> Deserialize<'de> for Rgb {
     }
 }
 
+/// A material parameter: one number, an `[r, g, b]` triple, or a texture
+/// `{ texture = "file.png", raw = false }`.
+#[derive(Debug, Clone)]
+enum Param {
+    Number(f32),
+    Triple(Vec3),
+    Texture { file: String, raw: Option<bool> },
+}
+
+impl<'de> Deserialize<'de> for Param {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Param;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str(
+                    "a number, an [r, g, b] array of three numbers or { texture = \"file\" }",
+                )
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> std::result::Result<Param, E> {
+                Ok(Param::Number(v as f32))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> std::result::Result<Param, E> {
+                Ok(Param::Number(v as f32))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> std::result::Result<Param, E> {
+                Ok(Param::Number(v as f32))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, s: A) -> std::result::Result<Param, A::Error> {
+                Rgb::deserialize(de::value::SeqAccessDeserializer::new(s))
+                    .map(|c| Param::Triple(c.0))
+            }
+            fn visit_map<A: de::MapAccess<'de>>(
+                self,
+                mut m: A,
+            ) -> std::result::Result<Param, A::Error> {
+                let (mut file, mut raw) = (None, None);
+                while let Some(key) = m.next_key::<String>()? {
+                    match key.as_str() {
+                        "texture" => file = Some(m.next_value::<String>()?),
+                        "raw" => raw = Some(m.next_value::<bool>()?),
+                        other => {
+                            return Err(de::Error::unknown_field(other, &["texture", "raw"]));
+                        }
+                    }
+                }
+                let file = file.ok_or_else(|| de::Error::missing_field("texture"))?;
+                Ok(Param::Texture { file, raw })
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
 /// Line (1-based) of byte `offset` in `text`.
 /// (Counted in bytes: an offset inside a multi-byte character cannot panic.)
 fn line_of(text: &str, offset: usize) -> usize {
@@ -443,18 +501,24 @@ fn check_colour(path: &Path, line: Option<usize>, what: &str, c: Rgb) -> Result<
     Ok(v)
 }
 
-/// Textures named by the scene file, each loaded once.
+/// Textures named by the scene file, each loaded once per decoding.
 #[derive(Default)]
 struct Textures {
-    loaded: HashMap<PathBuf, Arc<ImageTexture>>,
+    loaded: HashMap<(PathBuf, bool), Arc<ImageTexture>>,
 }
 
 impl Textures {
     /// The texture at `file` (relative to the scene's folder), loaded on
-    /// first use.
-    fn get(&mut self, path: &Path, line: Option<usize>, file: &str) -> Result<Arc<ImageTexture>> {
+    /// first use; `raw`: a PNG is read linear, not decoded from sRGB.
+    fn get(
+        &mut self,
+        path: &Path,
+        line: Option<usize>,
+        file: &str,
+        raw: bool,
+    ) -> Result<Arc<ImageTexture>> {
         let full = path.parent().unwrap_or(Path::new("")).join(file);
-        if let Some(t) = self.loaded.get(&full) {
+        if let Some(t) = self.loaded.get(&(full.clone(), raw)) {
             return Ok(t.clone());
         }
         if let Some(why) = super::not_a_file(&full) {
@@ -464,8 +528,12 @@ impl Textures {
                 format!("texture `{file}` {why} (expected a .png or .exr file next to the scene)"),
             ));
         }
-        let t = Arc::new(ImageTexture::load(&full)?);
-        self.loaded.insert(full, t.clone());
+        // the scene's line first, then what is wrong with the image
+        let t = Arc::new(
+            ImageTexture::load_as(&full, raw)
+                .map_err(|e| Error::input(path, line, format!("texture `{file}`: {e}")))?,
+        );
+        self.loaded.insert((full, raw), t.clone());
         Ok(t)
     }
 }
@@ -490,6 +558,13 @@ fn keys_of_type(kind: &str) -> Option<&'static [&'static str]> {
     })
 }
 
+/// A parameter's value: its constant (the default where a texture gives
+/// it) and its texture.
+struct Value {
+    constant: Vec3,
+    texture: Option<Arc<ImageTexture>>,
+}
+
 /// Apply a `material = {...}` table to `mat`.
 ///
 /// With `type`, the table describes the whole material: `mat` keeps only its
@@ -499,6 +574,12 @@ fn keys_of_type(kind: &str) -> Option<&'static [&'static str]> {
 /// and `shininess` 1, or the GGX lobe when `roughness` is given). Without `type`,
 /// the keys given override those of `mat` (from an MTL file, say): `diffuse`
 /// or `texture` make it diffuse, and keys of other types are an error.
+///
+/// `diffuse`, `reflectance`, `transmittance`, `specular`, `alpha` and
+/// `emission` may be `{ texture = "file", raw = false }`: a PNG is decoded
+/// from sRGB for the colours and read linear for `alpha`, or linear for any
+/// with `raw = true`; EXR is linear. `normal_map` and `bump_map` (with
+/// `bump_scale`, 1 by default) name raw images; a material takes one of them.
 fn apply_material(
     path: &Path,
     line: Option<usize>,
@@ -508,20 +589,44 @@ fn apply_material(
 ) -> Result<()> {
     let fail = |m: String| Error::input(path, line, m);
     let keys = over.bsdf_keys();
-    let unit = |key: &str, v: Option<Rgb>, default: f32| -> Result<Vec3> {
-        let Some(v) = v else {
-            return Ok(Vec3::splat(default));
+    // a colour in [0, 1] (or its texture, sRGB unless raw)
+    let unit =
+        |textures: &mut Textures, key: &str, v: &Option<Param>, default: f32| -> Result<Value> {
+            let constant = match v {
+                None => Vec3::splat(default),
+                Some(Param::Texture { file, raw }) => {
+                    return Ok(Value {
+                        constant: Vec3::splat(default),
+                        texture: Some(textures.get(path, line, file, raw.unwrap_or(false))?),
+                    });
+                }
+                Some(Param::Number(x)) => Vec3::splat(*x),
+                Some(Param::Triple(c)) => *c,
+            };
+            let v = check_colour(path, line, &format!("material.{key}"), Rgb(constant))?;
+            if v.max_element() > 1.0 {
+                return Err(fail(format!("material.{key} must be at most 1, got {v}")));
+            }
+            Ok(Value {
+                constant: v,
+                texture: None,
+            })
         };
-        let v = check_colour(path, line, &format!("material.{key}"), v)?;
-        if v.max_element() > 1.0 {
-            return Err(fail(format!("material.{key} must be at most 1, got {v}")));
+    let diffuse_key = match (&over.diffuse, &over.texture) {
+        (Some(Param::Texture { .. }), Some(_)) => {
+            return Err(fail(
+                "material.texture and material.diffuse = { texture = ... } exclude each other"
+                    .into(),
+            ));
         }
-        Ok(v)
+        (_, Some(file)) => Some(Param::Texture {
+            file: file.clone(),
+            raw: None,
+        }),
+        (d, None) => d.clone(),
     };
-    let texture = match &over.texture {
-        Some(f) => Some(textures.get(path, line, f)?),
-        None => None,
-    };
+    let diffuse = unit(textures, "diffuse", &diffuse_key, 0.8)?;
+    let texture = diffuse.texture.clone();
     match over.kind.as_deref() {
         None => {
             if let Some(k) = keys.iter().find(|k| !["diffuse", "texture"].contains(k)) {
@@ -531,8 +636,8 @@ fn apply_material(
             }
             if over.diffuse.is_some() || texture.is_some() {
                 let albedo = match over.diffuse {
-                    Some(d) => unit("diffuse", Some(d), 0.8)?,
-                    None => mat.albedo().unwrap_or(Vec3::splat(0.8)),
+                    Some(Param::Number(_) | Param::Triple(_)) => diffuse.constant,
+                    _ => mat.albedo().unwrap_or(Vec3::splat(0.8)),
                 };
                 mat.bsdf = Bsdf::Diffuse(Diffuse { albedo });
                 mat.texture = texture.or(mat.texture.take());
@@ -557,23 +662,63 @@ fn apply_material(
                     .map_err(|e| fail(format!("material.distribution: {e}")))?,
                 None => Distribution::Ggx,
             };
+            // roughness: one number, or a texture read linear
+            let alpha = |textures: &mut Textures,
+                         default: f32|
+             -> Result<(f32, Option<Arc<ImageTexture>>)> {
+                match &over.alpha {
+                    None => Ok((default, None)),
+                    Some(Param::Number(a)) => Ok((*a, None)),
+                    Some(Param::Triple(_)) => Err(fail(
+                        "material.alpha must be one number or { texture = ... }, not a triple"
+                            .into(),
+                    )),
+                    Some(Param::Texture { file, raw }) => {
+                        if kind == "plastic" {
+                            return Err(fail(
+                                "material.alpha: a plastic's roughness cannot be textured (its coat table is built per roughness); give a number"
+                                    .into(),
+                            ));
+                        }
+                        let t = textures.get(path, line, file, raw.unwrap_or(true))?;
+                        // the smallest roughness stands for the texture, so
+                        // the plan sees a delta lobe if any texel is smooth
+                        Ok((t.min_scalar(), Some(t)))
+                    }
+                }
+            };
+            let mut maps = Maps::default();
             let bsdf = match kind {
                 "diffuse" => Bsdf::Diffuse(Diffuse {
-                    albedo: unit("diffuse", over.diffuse, 0.8)?,
+                    albedo: diffuse.constant,
                 }),
-                "mirror" => Bsdf::Mirror(Mirror {
-                    reflectance: unit("reflectance", over.reflectance, 1.0)?,
-                }),
-                "glass" => Bsdf::Glass(Glass {
-                    ior,
-                    reflectance: unit("reflectance", over.reflectance, 1.0)?,
-                    transmittance: unit("transmittance", over.transmittance, 1.0)?,
-                }),
-                "conductor" => Bsdf::Conductor(Conductor {
-                    eta: over.eta.map_or(Vec3::ZERO, |c| c.0),
-                    k: over.k.map_or(Vec3::ONE, |c| c.0),
-                    microfacet: Microfacet::new(distribution, over.alpha.unwrap_or(0.1)),
-                }),
+                "mirror" => {
+                    let r = unit(textures, "reflectance", &over.reflectance, 1.0)?;
+                    maps.specular = r.texture;
+                    Bsdf::Mirror(Mirror {
+                        reflectance: r.constant,
+                    })
+                }
+                "glass" => {
+                    let r = unit(textures, "reflectance", &over.reflectance, 1.0)?;
+                    let t = unit(textures, "transmittance", &over.transmittance, 1.0)?;
+                    maps.specular = r.texture;
+                    maps.transmittance = t.texture;
+                    Bsdf::Glass(Glass {
+                        ior,
+                        reflectance: r.constant,
+                        transmittance: t.constant,
+                    })
+                }
+                "conductor" => {
+                    let (a, t) = alpha(textures, 0.1)?;
+                    maps.alpha = t;
+                    Bsdf::Conductor(Conductor {
+                        eta: over.eta.map_or(Vec3::ZERO, |c| c.0),
+                        k: over.k.map_or(Vec3::ONE, |c| c.0),
+                        microfacet: Microfacet::new(distribution, a),
+                    })
+                }
                 "phong" => {
                     let lobe = match (over.shininess, over.roughness) {
                         (Some(_), Some(_)) => {
@@ -586,17 +731,19 @@ fn apply_material(
                         },
                         (None, Some(r)) => Lobe::Ggx { roughness: r },
                     };
+                    let spec = unit(textures, "specular", &over.specular, 0.0)?;
+                    maps.specular = spec.texture;
                     Bsdf::Phong(Phong {
-                        diffuse: unit("diffuse", over.diffuse, 0.8)?,
-                        specular: unit("specular", over.specular, 0.0)?,
+                        diffuse: diffuse.constant,
+                        specular: spec.constant,
                         lobe,
                     })
                 }
                 _ => Bsdf::Plastic(
                     Plastic::with_options(
-                        unit("diffuse", over.diffuse, 0.8)?,
+                        diffuse.constant,
                         ior,
-                        over.alpha.unwrap_or(0.0),
+                        alpha(textures, 0.0)?.0,
                         distribution,
                         over.nonlinear.unwrap_or(true),
                     )
@@ -609,10 +756,52 @@ fn apply_material(
             mat.texture = texture;
             mat.emission = Vec3::ZERO;
             mat.two_sided = false;
+            mat.maps = maps;
         }
     }
-    if let Some(e) = over.emission {
-        mat.emission = check_colour(path, line, "material.emission", e)?;
+    match &over.emission {
+        None => {}
+        Some(Param::Texture { file, raw }) => {
+            let t = textures.get(path, line, file, raw.unwrap_or(false))?;
+            mat.emission = t.mean();
+            mat.maps.emission = Some(t);
+        }
+        Some(Param::Number(x)) => {
+            mat.emission = check_colour(path, line, "material.emission", Rgb(Vec3::splat(*x)))?;
+            mat.maps.emission = None;
+        }
+        Some(Param::Triple(c)) => {
+            mat.emission = check_colour(path, line, "material.emission", Rgb(*c))?;
+            mat.maps.emission = None;
+        }
+    }
+    if over.bump_scale.is_some() && over.bump_map.is_none() {
+        return Err(fail("material.bump_scale needs a material.bump_map".into()));
+    }
+    match (&over.normal_map, &over.bump_map) {
+        (Some(_), Some(_)) => {
+            return Err(fail(
+                "material.normal_map and material.bump_map exclude each other".into(),
+            ));
+        }
+        (Some(file), None) => {
+            mat.maps.normal = Some(textures.get(path, line, file, true)?);
+            mat.maps.bump = None;
+        }
+        (None, Some(file)) => {
+            let scale = over.bump_scale.unwrap_or(1.0);
+            if !scale.is_finite() {
+                return Err(fail(format!(
+                    "material.bump_scale must be finite, got {scale}"
+                )));
+            }
+            mat.maps.bump = Some(BumpMap {
+                texture: textures.get(path, line, file, true)?,
+                scale,
+            });
+            mat.maps.normal = None;
+        }
+        (None, None) => {}
     }
     if let Some(t) = over.two_sided {
         mat.two_sided = t;

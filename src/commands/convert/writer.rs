@@ -159,11 +159,33 @@ impl Writer<'_> {
                 });
             }
         }
-        if let Some(t) = &m.texture {
-            let name = self.texture(t)?;
-            keys.push(format!("texture = \"{name}\""));
+        // every texture in [`material_textures`]' order (planned_files')
+        let mut names = Vec::new();
+        for t in material_textures(m) {
+            names.push(self.texture(t)?);
         }
-        if m.emission != Vec3::ZERO {
+        let mut names = names.into_iter();
+        let mut next = || names.next().expect("one name per texture");
+        for (key, _) in m.textured() {
+            let name = next();
+            if key == "texture" {
+                keys.push(format!("texture = \"{name}\""));
+            } else {
+                // the texture replaces the constant (an emission's mean, a
+                // roughness's minimum)
+                let prefix = format!("{key} = ");
+                keys.retain(|k| !k.starts_with(&prefix));
+                keys.push(format!("{key} = {{ texture = \"{name}\" }}"));
+            }
+        }
+        if m.maps.normal.is_some() {
+            keys.push(format!("normal_map = \"{}\"", next()));
+        }
+        if let Some(b) = &m.maps.bump {
+            keys.push(format!("bump_map = \"{}\"", next()));
+            keys.push(format!("bump_scale = {}", num(b.scale)));
+        }
+        if m.emission != Vec3::ZERO && m.maps.emission.is_none() {
             keys.push(format!("emission = {}", rgb(m.emission)));
         }
         if m.two_sided {
@@ -281,6 +303,17 @@ fn runs(materials: &[u32]) -> Vec<(std::ops::Range<usize>, u32)> {
     out
 }
 
+/// The textures of `m` in the order [`convert`] writes them: the textured
+/// parameters ([`Material::textured`]), then the normal or bump map. (Each
+/// is written as linear EXR, which every key reads as it is, so `raw` is
+/// never needed.)
+fn material_textures(m: &Material) -> Vec<&Arc<ImageTexture>> {
+    let mut v: Vec<&Arc<ImageTexture>> = m.textured().into_iter().map(|(_, t)| t).collect();
+    v.extend(m.maps.normal.as_ref());
+    v.extend(m.maps.bump.as_ref().map(|b| &b.texture));
+    v
+}
+
 /// The files [`convert`] writes for `scene` at `out` (in `dir`, named after
 /// `stem`), in the order written: a mesh per run of triangles with one
 /// material, each distinct texture, the environment map, the TOML.
@@ -288,7 +321,7 @@ fn planned_files(scene: &Scene, out: &Path, dir: &Path, stem: &str) -> Vec<PathB
     let mut files = Vec::new();
     let mut textures: Vec<Arc<ImageTexture>> = Vec::new();
     let mut texture = |m: &Material, files: &mut Vec<PathBuf>| {
-        if let Some(t) = &m.texture {
+        for t in material_textures(m) {
             if !textures.iter().any(|u| Arc::ptr_eq(u, t)) {
                 files.push(dir.join(format!("{stem}-texture-{}.exr", textures.len())));
                 textures.push(t.clone());

@@ -107,6 +107,14 @@ pub struct RenderArgs {
     /// none, brighter red for more) or EXR/PFM (the count per pixel).
     #[arg(long, value_name = "FILE")]
     aov: Option<PathBuf>,
+    /// Write the first-hit albedo (OIDN's definition: delta surfaces
+    /// followed) averaged over each pixel's rays, for a denoiser (.exr).
+    #[arg(long, value_name = "FILE")]
+    albedo: Option<PathBuf>,
+    /// Write the first-hit shading normal averaged over each pixel's rays,
+    /// for a denoiser (.exr).
+    #[arg(long, value_name = "FILE")]
+    normal: Option<PathBuf>,
     /// Scale every sample down so that no component exceeds MAX (biased:
     /// the report states the energy removed) [default: no clamp].
     #[arg(long, value_name = "MAX", allow_negative_numbers = true)]
@@ -181,6 +189,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
         ("-o", Some(&output)),
         ("--report", args.report.as_ref()),
         ("--aov", args.aov.as_ref()),
+        ("--albedo", args.albedo.as_ref()),
+        ("--normal", args.normal.as_ref()),
         ("--sample-map", args.sample_map.as_ref()),
         ("--convergence", args.convergence.as_ref()),
         ("--checkpoint", args.checkpoint.as_ref()),
@@ -227,6 +237,18 @@ pub fn run(args: RenderArgs) -> Result<()> {
     budget.validate()?;
     if let Some(p) = &args.aov {
         image::check_output_path(p)?;
+    }
+    for (flag, p) in [("--albedo", &args.albedo), ("--normal", &args.normal)] {
+        if let Some(p) = p {
+            let exr = p.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+            if !exr {
+                return Err(Error::Settings(format!(
+                    "{flag} {}: the denoiser's auxiliary images are written as .exr",
+                    p.display()
+                )));
+            }
+            image::check_output_path(p)?;
+        }
     }
     if let Some(c) = args.clamp {
         if !(c > 0.0 && c.is_finite()) {
@@ -531,6 +553,19 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     if let Some(p) = &args.aov {
         write_bad_sample_map(p, w, h, &bad.per_pixel)?;
+    }
+    if args.albedo.is_some() || args.normal.is_some() {
+        let aux = crate::render::render_auxiliary(&tracer, &camera, resolution, spp, seed);
+        let plain = OutputOptions {
+            exposure: 0.0,
+            metadata: Vec::new(),
+        };
+        if let Some(p) = &args.albedo {
+            image::write_rgb(p, w, h, &aux.albedo, &plain)?;
+        }
+        if let Some(p) = &args.normal {
+            image::write_rgb(p, w, h, &aux.normal, &plain)?;
+        }
     }
     let options = OutputOptions {
         exposure: args.exposure,

@@ -1,6 +1,17 @@
 //! BSDFs (`diffuse`, `conductor`, `roughconductor`, `dielectric`,
-//! `plastic`, `roughplastic`, `twosided`) and `bitmap` textures, read into a
-//! [`Material`].
+//! `plastic`, `roughplastic`, `twosided`, `normalmap`, `bumpmap`) and
+//! `bitmap` textures, read into a [`Material`].
+//!
+//! A `bitmap` (`filename`, `raw`; `filter_type` bilinear and `wrap_mode`
+//! repeat, other values warned about and read as those) may stand for
+//! diffuse `reflectance`, plastic `diffuse_reflectance`, dielectric
+//! `specular_reflectance` and `specular_transmittance`, and roughconductor
+//! `alpha`. As in Mitsuba, a PNG is decoded from sRGB unless `raw` is true,
+//! whatever the parameter (a normal map without `raw` is decoded too).
+//! `normalmap` (its `normalmap` texture) and `bumpmap` (any nested texture,
+//! `scale`) wrap one BSDF, whose material they give the map; their
+//! `use_shadowing_function` is not modelled (a warning unless false) and
+//! `flip_invalid_normals` is read and ignored.
 
 use super::Loader;
 use super::params::{Params, Value};
@@ -41,7 +52,7 @@ const NAMED_IOR: [(&str, f32); 23] = [
 ];
 
 impl<'a, 'i> Loader<'a, 'i> {
-    fn texture(&mut self, node: Node<'a, 'i>) -> Result<Arc<ImageTexture>> {
+    pub(super) fn texture(&mut self, node: Node<'a, 'i>) -> Result<Arc<ImageTexture>> {
         let kind = self.need_attr(node, "type")?;
         if kind != "bitmap" {
             return Err(self.fail(
@@ -71,16 +82,20 @@ impl<'a, 'i> Loader<'a, 'i> {
                 }
             }
         }
+        let raw = p.boolean("raw").is_some_and(|v| v.0);
         self.finish(p);
         let full = self.dir.join(&file);
-        if let Some(t) = self.textures.get(&full) {
+        if let Some(t) = self.textures.get(&(full.clone(), raw)) {
             return Ok(t.clone());
         }
         if let Some(why) = crate::scene::not_a_file(&full) {
             return Err(self.fail(node, format!("bitmap `{}` {why}", one_line(&file))));
         }
-        let t = Arc::new(ImageTexture::load(&full)?);
-        self.textures.insert(full, t.clone());
+        let t = Arc::new(
+            ImageTexture::load_as(&full, raw)
+                .map_err(|e| self.fail(node, format!("bitmap: {e}")))?,
+        );
+        self.textures.insert((full, raw), t.clone());
         Ok(t)
     }
 
@@ -149,6 +164,22 @@ impl<'a, 'i> Loader<'a, 'i> {
         }
     }
 
+    /// A roughness that may be a bitmap: (value, texture); with a texture,
+    /// the value is its smallest (so a smooth texel shows as a delta lobe).
+    fn alpha_or_texture(
+        &mut self,
+        p: &mut Params<'a, 'i>,
+    ) -> Result<(f32, Option<Arc<ImageTexture>>)> {
+        if let Some(node) = p.object("alpha") {
+            if node.tag_name().name() != "texture" {
+                return Err(self.fail(node, "`alpha` must be a number or a texture"));
+            }
+            let t = self.texture(node)?;
+            return Ok((t.min_scalar(), Some(t)));
+        }
+        Ok((self.alpha(p)?, None))
+    }
+
     fn alpha(&self, p: &mut Params<'a, 'i>) -> Result<f32> {
         let a = p.number("alpha").map_or(0.1, |v| v.0) as f32;
         if let (Some((u, _)), Some((v, _))) = (p.number("alpha_u"), p.number("alpha_v")) {
@@ -174,6 +205,7 @@ impl<'a, 'i> Loader<'a, 'i> {
             .map_or_else(|| kind.clone(), str::to_string);
         let mut p = self.params(node)?;
         let mut texture = None;
+        let mut maps = crate::scene::Maps::default();
         let air = 1.00028;
         let bsdf = match kind.as_str() {
             "twosided" => {
@@ -189,6 +221,65 @@ impl<'a, 'i> Loader<'a, 'i> {
                 self.finish(p);
                 // embertrace's surfaces scatter on both sides already
                 let mut m = self.bsdf(inner)?;
+                m.name = name;
+                return Ok(m);
+            }
+            "normalmap" | "bumpmap" => {
+                let inner = p
+                    .unnamed_of("bsdf")
+                    .or_else(|| p.any_of("bsdf"))
+                    .ok_or_else(|| self.fail(node, format!("{kind} needs one nested <bsdf>")))?;
+                let map = if kind == "normalmap" {
+                    p.object("normalmap")
+                } else {
+                    p.any_of("texture")
+                }
+                .ok_or_else(|| {
+                    self.fail(
+                        node,
+                        if kind == "normalmap" {
+                            "normalmap needs a <texture name=\"normalmap\">"
+                        } else {
+                            "bumpmap needs a nested <texture>"
+                        },
+                    )
+                })?;
+                if map.tag_name().name() != "texture" {
+                    return Err(self.fail(map, format!("{kind}: expected a <texture>")));
+                }
+                let t = self.texture(map)?;
+                let scale = p.number("scale").map_or(1.0, |v| v.0) as f32;
+                // Mitsuba 3.7 added a terminator shadowing term (Conty
+                // Estevez et al. 2019), on by default, which darkens
+                // grazing light by about 1 % on a gently mapped floor;
+                // embertrace has none. Its `flip_invalid_normals` folds an
+                // invalid normal, where embertrace bends it towards the
+                // viewer (the smooth-normal rule): read, not warned about.
+                if p.boolean("use_shadowing_function").is_none_or(|v| v.0) {
+                    self.warn(
+                        node,
+                        format!(
+                            "{kind}: Mitsuba's use_shadowing_function (on by default) is not modelled; set it to false to compare"
+                        ),
+                    );
+                }
+                p.boolean("flip_invalid_normals");
+                if !scale.is_finite() {
+                    return Err(self.fail(node, format!("bumpmap: `scale` {scale} is not finite")));
+                }
+                self.finish(p);
+                let mut m = self.bsdf(inner)?;
+                if m.maps.perturbs_normal() {
+                    return Err(self.fail(
+                        node,
+                        "a normalmap or bumpmap inside another is not in the subset",
+                    ));
+                }
+                if kind == "normalmap" {
+                    m.maps.normal = Some(t);
+                } else {
+                    m.maps.bump = Some(crate::scene::BumpMap { texture: t, scale });
+                }
                 m.name = name;
                 return Ok(m);
             }
@@ -219,7 +310,10 @@ impl<'a, 'i> Loader<'a, 'i> {
                 let microfacet = if kind == "conductor" {
                     Microfacet::new(Distribution::Ggx, 0.0)
                 } else {
-                    Microfacet::new(self.distribution(&mut p)?, self.alpha(&mut p)?)
+                    let distribution = self.distribution(&mut p)?;
+                    let (alpha, t) = self.alpha_or_texture(&mut p)?;
+                    maps.alpha = t;
+                    Microfacet::new(distribution, alpha)
                 };
                 p.boolean("sample_visible");
                 Bsdf::Conductor(Conductor { eta, k, microfacet })
@@ -227,8 +321,10 @@ impl<'a, 'i> Loader<'a, 'i> {
             "dielectric" => {
                 let int = self.ior(&mut p, "int_ior", 1.5046)?;
                 let ext = self.ior(&mut p, "ext_ior", air)?;
-                let (reflectance, _) = self.reflectance(&mut p, "specular_reflectance", 1.0)?;
-                let (transmittance, _) = self.reflectance(&mut p, "specular_transmittance", 1.0)?;
+                let (reflectance, r) = self.reflectance(&mut p, "specular_reflectance", 1.0)?;
+                let (transmittance, t) = self.reflectance(&mut p, "specular_transmittance", 1.0)?;
+                maps.specular = r;
+                maps.transmittance = t;
                 Bsdf::Glass(Glass {
                     ior: int / ext,
                     reflectance,
@@ -246,6 +342,12 @@ impl<'a, 'i> Loader<'a, 'i> {
                     (Distribution::Ggx, 0.0)
                 } else {
                     p.boolean("sample_visible");
+                    if p.object("alpha").is_some() {
+                        return Err(self.fail(
+                            node,
+                            "roughplastic: a textured `alpha` is not supported (the coat's table is built per roughness); give a number",
+                        ));
+                    }
                     (self.distribution(&mut p)?, self.alpha(&mut p)?)
                 };
                 Bsdf::Plastic(
@@ -272,6 +374,7 @@ impl<'a, 'i> Loader<'a, 'i> {
             texture,
             emission: Vec3::ZERO,
             two_sided: false,
+            maps,
         })
     }
 

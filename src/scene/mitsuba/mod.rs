@@ -76,7 +76,8 @@ struct Loader<'a, 'i> {
     ids: HashMap<String, Node<'a, 'i>>,
     /// Shapegroups by id: their prototypes in the scene builder.
     groups: HashMap<String, u32>,
-    textures: HashMap<PathBuf, Arc<ImageTexture>>,
+    /// Loaded bitmaps by file and `raw` flag.
+    textures: HashMap<(PathBuf, bool), Arc<ImageTexture>>,
     warnings: Vec<String>,
     doc: &'a Document<'i>,
 }

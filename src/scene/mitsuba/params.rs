@@ -233,6 +233,20 @@ impl<'a, 'i> Params<'a, 'i> {
         .map(|v| v.0)
     }
 
+    /// The first nested plugin with tag `tag` not yet taken, named or not
+    /// (a `bumpmap`'s texture takes any name).
+    pub(super) fn any_of(&mut self, tag: &str) -> Option<Node<'a, 'i>> {
+        if let Some(item) = self.items.iter_mut().find(|(_, v, _, taken)| {
+            !taken && matches!(v, Value::Object(n) if n.tag_name().name() == tag)
+        }) {
+            item.3 = true;
+            if let Value::Object(n) = item.1 {
+                return Some(n);
+            }
+        }
+        self.unnamed_of(tag)
+    }
+
     /// The first unnamed nested plugin with tag `tag`, not yet taken.
     pub(super) fn unnamed_of(&mut self, tag: &str) -> Option<Node<'a, 'i>> {
         let item = self

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Write the assets of the Mitsuba XML test scenes (icosphere.obj, floor.ply,
-sky.exr, checker.png) and render each scene with Mitsuba 3 itself into
+sky.exr, checker.png, and maps.xml's normals.png, roughness.png and
+bumps.png) and render each scene with Mitsuba 3 itself into
 <scene>.ref.exr (the mean of PASSES independent renders) and
 <scene>.var.exr (the variance of that mean, per pixel and channel, from the
 spread of the passes). tests/mitsuba.rs compares embertrace's renders of the
@@ -26,7 +27,7 @@ import mitsuba as mi
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-SCENES = ["cbox", "lights", "envmap", "instances", "spot"]
+SCENES = ["cbox", "lights", "envmap", "instances", "spot", "maps"]
 PASSES = 8
 SPP = int(sys.argv[1]) if len(sys.argv) > 1 else 4096
 
@@ -110,6 +111,38 @@ def checker_png():
     mi.Bitmap(img, mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, "checker.png"))
 
 
+def png(name, img):
+    mi.Bitmap(img.astype(np.uint8), mi.Bitmap.PixelFormat.RGB).write(
+        os.path.join(HERE, name))
+
+
+def maps_pngs():
+    """maps.xml's raw maps. normals.png (16 x 16): a tangent-space normal
+    tilted up to about 14 degrees, varying along both axes, so a flipped
+    tangent or bitangent shows; encoded (n + 1) / 2. roughness.png (8 x 8):
+    GGX alpha from 0.05 to 0.5, rising along x and y. bumps.png (32 x 32):
+    heights 0.5 + 0.5 sin(4 pi u) cos(2 pi v)."""
+    n = np.zeros((16, 16, 3))
+    for y in range(16):
+        for x in range(16):
+            sx = 0.2 * math.sin(2 * math.pi * (x + 0.5) / 16)
+            sy = 0.15 * math.cos(2 * math.pi * (y + 0.5) / 16)
+            v = np.array([sx, sy, 1.0])
+            n[y, x] = np.round(255 * (v / np.linalg.norm(v) + 1) / 2)
+    png("normals.png", n)
+    r = np.zeros((8, 8, 3))
+    for y in range(8):
+        for x in range(8):
+            r[y, x] = round(255 * (0.05 + 0.45 * (x + y) / 14))
+    png("roughness.png", r)
+    b = np.zeros((32, 32, 3))
+    for y in range(32):
+        for x in range(32):
+            u, v = (x + 0.5) / 32, (y + 0.5) / 32
+            b[y, x] = round(255 * (0.5 + 0.5 * math.sin(4 * math.pi * u) * math.cos(2 * math.pi * v)))
+    png("bumps.png", b)
+
+
 def render(name):
     scene = mi.load_file(os.path.join(HERE, name + ".xml"))
     passes = []
@@ -125,14 +158,16 @@ def render(name):
 
 
 if __name__ == "__main__":
-    icosphere()
-    floor_ply()
-    sky_exr()
-    checker_png()
     only = sys.argv[2:]
     unknown = [s for s in only if s not in SCENES]
     if unknown:
         sys.exit(f"unknown scenes {unknown} (expected some of {SCENES})")
+    if not only:
+        icosphere()
+        floor_ply()
+        sky_exr()
+        checker_png()
+    maps_pngs()
     info = {"generator": "tests/data/mitsuba/make_references.py",
             "mitsuba_version": mi.__version__, "variant": mi.variant(),
             "passes": PASSES, "spp_per_pass": SPP, "mean": {}}
