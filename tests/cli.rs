@@ -141,6 +141,33 @@ fn cases() -> Vec<Case> {
             expect: vec!["s.toml:1", "laser"],
         },
         Case {
+            name: "a spot light's beam wider than its cutoff",
+            files: vec![(
+                "s.toml",
+                "[[light]]\ntype = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nintensity = 1\ncutoff_angle = 10\nbeam_width = 20\n".into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:1", "beam_width", "cutoff_angle"],
+        },
+        Case {
+            name: "a spot light with both target and direction",
+            files: vec![(
+                "s.toml",
+                "[camera]\norigin = [0, 0, 3]\ntarget = [0, 0, 0]\n[[light]]\ntype = \"spot\"\nposition = [0, 1, 0]\ntarget = [0, 0, 0]\ndirection = [0, -1, 0]\nintensity = 1\n".into(),
+            )],
+            scene: "s.toml",
+            expect: vec!["s.toml:4", "exactly one of `target` and `direction`"],
+        },
+        Case {
+            name: "a Mitsuba spot light with a projected texture",
+            files: vec![(
+                "s.xml",
+                "<scene version=\"3.0.0\">\n<emitter type=\"spot\">\n<texture name=\"texture\" type=\"bitmap\"/>\n</emitter>\n</scene>\n".into(),
+            )],
+            scene: "s.xml",
+            expect: vec!["s.xml:3", "texture"],
+        },
+        Case {
             name: "negative emission",
             files: vec![
                 ("m.obj", GOOD_OBJ.into()),

@@ -4,7 +4,10 @@
 //! `rho / pi * I f(theta) cos(theta) / r^2` with Mitsuba's falloff `f`
 //! (one delta light, direct lighting only: every single sample is exact, so
 //! one sample per point is the test); the plan and the kernel it turns on;
-//! and the one-line errors for bad keys.
+//! the chi-square of power selection with a spot light's power; and the
+//! one-line errors for bad keys.
+
+mod common;
 
 use embertrace::accel::{self, AccelOptions, Backend};
 use embertrace::integrator::{PathTracer, RayCounts};
@@ -190,4 +193,37 @@ fn bad_spot_keys_are_one_line_errors_at_the_light() {
     ))
     .unwrap_err();
     assert!(e.contains("cutoff_angle") && e.contains(":4"), "{e}");
+}
+
+#[test]
+fn chi2_a_spot_light_is_chosen_by_its_falloffs_power() {
+    // power selection: a point light of I = 1 weighs 4 pi, a spot of I = 2
+    // with cutoff 30 and beam 10 weighs 2 * 2 pi (1 - (sin c - sin b) / (c - b))
+    let scene = load(&format!(
+        "{CAMERA}[[light]]\ntype = \"point\"\nposition = [0.0, 3.0, 0.0]\nintensity = 1.0\n\
+         [[light]]\ntype = \"spot\"\nposition = [2.0, 3.0, 0.0]\ndirection = [0.0, -1.0, 0.0]\n\
+         intensity = 2.0\ncutoff_angle = 30.0\nbeam_width = 10.0\n"
+    ))
+    .unwrap();
+    let lights = embertrace::integrator::Lights::new(&scene);
+    let (c, b) = (30f64.to_radians(), 10f64.to_radians());
+    let powers = [
+        4.0 * PI,
+        2.0 * 2.0 * PI * (1.0 - (c.sin() - b.sin()) / (c - b)),
+    ];
+    let total: f64 = powers.iter().sum();
+    let from = embertrace::math::SurfacePoint {
+        p: Vec3::ZERO,
+        p_err: Vec3::ZERO,
+        n: Vec3::Y,
+    };
+    let n = 200_000;
+    let mut obs = [0.0; 2];
+    let mut s = Sampler::new(17, 0, 0);
+    for _ in 0..n {
+        let chosen = lights.choose(&from, s.next_1d()).unwrap();
+        obs[chosen.index] += 1.0;
+    }
+    let exp: Vec<f64> = powers.iter().map(|p| p / total * n as f64).collect();
+    common::chi2_test(1, "point and spot by power", &obs, &exp);
 }

@@ -649,7 +649,6 @@ fn image_settings(
         ("direct", i.direct.to_string()),
         ("roulette", roulette),
         ("rr_depth", i.rr_depth.to_string()),
-        ("light_sampler", i.light_sampler.to_string()),
         ("backend", backend.name().to_string()),
         ("robust", (!build.no_robust).to_string()),
         (
@@ -661,6 +660,12 @@ fn image_settings(
     ]
     .into_iter()
     .map(|(n, v)| (n.to_string(), v))
+    // only when forced, so that files written before the setting existed
+    // (all `auto`) still merge and resume
+    .chain(
+        (i.light_sampler != LightSampler::Auto)
+            .then(|| ("light_sampler".to_string(), i.light_sampler.to_string())),
+    )
     .collect()
 }
 
