@@ -7,7 +7,10 @@
 //! - normal and bump maps in closed form (flat maps change nothing, a tilted
 //!   normal map and a linear bump ramp shade a Lambertian plane under a
 //!   directional light as the cosine of the tilt predicts);
-//! - bad keys and files are one-line errors naming the scene file and line.
+//! - bad keys and files are one-line errors naming the scene file and line;
+//! - `convert` writes every textured parameter and map back;
+//! - `render --albedo --normal` (item 7) writes the same bits for any thread
+//!   count and refuses outputs onto inputs or other outputs.
 
 use embertrace::accel::{self, AccelOptions, Backend};
 use embertrace::integrator::PathTracer;
