@@ -204,17 +204,15 @@ impl ImageTexture {
         if let Some(c) = self.uniform {
             return c;
         }
-        // continuous texel coordinates, texel centres at integers
-        let s = uv.x as f64 * self.width as f64 - 0.5;
-        let t = (1.0 - uv.y as f64) * self.height as f64 - 0.5;
-        let (x0, y0) = (crate::math::floor_f64(s), crate::math::floor_f64(t));
-        let (fx, fy) = ((s - x0) as f32, (t - y0) as f32);
-        // wrapped once each (a division), the neighbours from those
-        let (w, h) = (self.width as usize, self.height as usize);
-        let x0 = (x0 as i64).rem_euclid(w as i64) as usize;
-        let y0 = (y0 as i64).rem_euclid(h as i64) as usize;
-        let x1 = if x0 + 1 == w { 0 } else { x0 + 1 };
-        let y1 = if y0 + 1 == h { 0 } else { y0 + 1 };
+        let Cell {
+            x0,
+            y0,
+            x1,
+            y1,
+            fx,
+            fy,
+        } = self.cell(uv);
+        let w = self.width as usize;
         let texel = |x: usize, y: usize| self.texels[y * w + x];
         let (a, b) = (texel(x0, y0), texel(x1, y0));
         let (c, d) = (texel(x0, y1), texel(x1, y1));
@@ -241,15 +239,15 @@ impl ImageTexture {
         if !uv.is_finite() || self.uniform.is_some() {
             return Vec2::ZERO;
         }
-        let s = uv.x as f64 * self.width as f64 - 0.5;
-        let t = (1.0 - uv.y as f64) * self.height as f64 - 0.5;
-        let (x0, y0) = (crate::math::floor_f64(s), crate::math::floor_f64(t));
-        let (fx, fy) = ((s - x0) as f32, (t - y0) as f32);
+        let Cell {
+            x0,
+            y0,
+            x1,
+            y1,
+            fx,
+            fy,
+        } = self.cell(uv);
         let (w, h) = (self.width as usize, self.height as usize);
-        let x0 = (x0 as i64).rem_euclid(w as i64) as usize;
-        let y0 = (y0 as i64).rem_euclid(h as i64) as usize;
-        let x1 = if x0 + 1 == w { 0 } else { x0 + 1 };
-        let y1 = if y0 + 1 == h { 0 } else { y0 + 1 };
         let f = |x: usize, y: usize| {
             let c = self.texels[y * w + x];
             if self.grey { c.x } else { luminance(c) }
@@ -261,12 +259,47 @@ impl ImageTexture {
         Vec2::new(ds * w as f32, -dt * h as f32)
     }
 
+    /// The bilinear cell around `uv`: continuous texel coordinates with
+    /// texel centres at integers, its corner texels wrapped once each (a
+    /// division; the neighbours from those) and the weights within it.
+    #[inline]
+    fn cell(&self, uv: Vec2) -> Cell {
+        let s = uv.x as f64 * self.width as f64 - 0.5;
+        let t = (1.0 - uv.y as f64) * self.height as f64 - 0.5;
+        let (x0, y0) = (crate::math::floor_f64(s), crate::math::floor_f64(t));
+        let (fx, fy) = ((s - x0) as f32, (t - y0) as f32);
+        let (w, h) = (self.width as usize, self.height as usize);
+        let x0 = (x0 as i64).rem_euclid(w as i64) as usize;
+        let y0 = (y0 as i64).rem_euclid(h as i64) as usize;
+        let x1 = if x0 + 1 == w { 0 } else { x0 + 1 };
+        let y1 = if y0 + 1 == h { 0 } else { y0 + 1 };
+        Cell {
+            x0,
+            y0,
+            x1,
+            y1,
+            fx,
+            fy,
+        }
+    }
+
     /// A scalar at `uv`: the grey value of a grey image, otherwise the
     /// luminance of [`ImageTexture::eval`].
     pub fn eval_scalar(&self, uv: Vec2) -> f32 {
         let c = self.eval(uv);
         if self.grey { c.x } else { luminance(c) }
     }
+}
+
+/// A texel cell of a bilinear lookup: corner columns `x0`, `x1` and rows
+/// `y0`, `y1`, and the weights `fx`, `fy` of the second ones.
+struct Cell {
+    x0: usize,
+    y0: usize,
+    x1: usize,
+    y1: usize,
+    fx: f32,
+    fy: f32,
 }
 
 #[cfg(test)]

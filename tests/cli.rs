@@ -924,7 +924,7 @@ fn parity_on_every_bundled_scene_leaves_nothing_unexplained() {
         // parity uses up to 20k triangles
         let triangles = embertrace::scene::Scene::load(&entry)
             .unwrap()
-            .triangle_count();
+            .traced_triangle_count();
         if !embree && triangles > 20_000 {
             continue;
         }

@@ -297,15 +297,7 @@ impl SceneBuilder {
     /// many instances place it. Returns the prototype's index.
     pub fn add_prototype(&mut self, mut mesh: MeshData, line: Option<usize>) -> Result<u32> {
         self.check_mesh(&mesh, line)?;
-        let s = &mut self.scene;
-        s.warnings.append(&mut mesh.warnings);
-        for f in mesh.files.drain(..) {
-            if !s.mesh_files.contains(&f) {
-                s.mesh_files.push(f);
-            }
-        }
-        let base_material = s.materials.len() as u32;
-        s.materials.append(&mut mesh.materials);
+        let base_material = self.absorb(&mut mesh);
         self.counts.0 += mesh.indices.len() as u64;
         self.counts.1 += mesh.positions.len() as u64;
         self.prototypes.push(PrototypeIn {
@@ -422,9 +414,9 @@ impl SceneBuilder {
         }
         s.instances = out;
     }
-    /// Place `mesh` in world space: positions through `m` (f64), normals
-    /// through its inverse transpose, winding reversed by a mirror.
-    fn place(&mut self, mut mesh: MeshData, m: DAffine3, line: Option<usize>) {
+    /// Move `mesh`'s warnings, files and materials into the scene; returns
+    /// the scene index of its first material.
+    fn absorb(&mut self, mesh: &mut MeshData) -> u32 {
         let s = &mut self.scene;
         s.warnings.append(&mut mesh.warnings);
         for f in mesh.files.drain(..) {
@@ -434,6 +426,13 @@ impl SceneBuilder {
         }
         let base_material = s.materials.len() as u32;
         s.materials.append(&mut mesh.materials);
+        base_material
+    }
+
+    /// Place `mesh` in world space: positions through `m` (f64), normals
+    /// through its inverse transpose, winding reversed by a mirror.
+    fn place(&mut self, mut mesh: MeshData, m: DAffine3, line: Option<usize>) {
+        let base_material = self.absorb(&mut mesh);
         mesh.transform_by(&m);
         self.counts.0 += mesh.indices.len() as u64;
         self.counts.1 += mesh.positions.len() as u64;

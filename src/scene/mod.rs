@@ -271,6 +271,12 @@ impl Scene {
         self.indices.len()
     }
 
+    /// Number of triangles a ray may meet: placed ones plus every
+    /// placement's (what brute force pays for).
+    pub fn traced_triangle_count(&self) -> u64 {
+        self.indices.len() as u64 + self.instances.triangle_count()
+    }
+
     /// The first instanced primitive: placed triangles and spheres come
     /// before.
     #[inline]

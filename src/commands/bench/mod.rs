@@ -139,7 +139,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
         Some(list) => list,
         None => Backend::available()
             .into_iter()
-            .filter(|&b| b != Backend::Naive || scene.triangle_count() <= NAIVE_BENCH_LIMIT)
+            .filter(|&b| {
+                b != Backend::Naive || scene.traced_triangle_count() <= NAIVE_BENCH_LIMIT as u64
+            })
             .collect(),
     };
     let settings = ThroughputSettings {

@@ -73,7 +73,9 @@ pub fn run(args: ParityArgs) -> Result<()> {
             let mut v: Vec<Backend> = Backend::available();
             v.sort_by_key(|&b| b != Backend::Naive);
             v.into_iter()
-                .filter(|&b| b != Backend::Naive || scene.triangle_count() <= NAIVE_BENCH_LIMIT)
+                .filter(|&b| {
+                    b != Backend::Naive || scene.traced_triangle_count() <= NAIVE_BENCH_LIMIT as u64
+                })
                 .collect()
         }
     };
