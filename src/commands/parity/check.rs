@@ -19,7 +19,9 @@
 //! - `precision`: a distance disagreement on the same triangle within the
 //!   `f32` error bound of the distance (`gamma(16) R / |cos|`): a triangle
 //!   large next to the hit distance cannot fix `t` more finely in either
-//!   backend;
+//!   backend; on an instanced triangle, plus the rounding of the way into
+//!   its object space (`gamma(32) cond 3 |o| / |cos|`, each backend with its
+//!   own inverse of the placement's map);
 //! - `unexplained`: anything else, in particular a triangle hit squarely by
 //!   one backend and passed by the other. `parity` exits non-zero if any
 //!   exists.
@@ -264,7 +266,29 @@ fn within_precision(scene: &Scene, ray: &Ray, a: &Hit, other_t: f32) -> bool {
         // every backend runs the same sphere routine: only the final f32
         // rounding of t may differ
         Some(_) => 2.0 * f32::EPSILON * a.t.abs().max(other_t.abs()),
-        None => distance_error_bound(scene.triangle(a.prim), ray),
+        None => {
+            let corners = scene.triangle(a.prim);
+            let bound = distance_error_bound(corners, ray);
+            match scene.instanced(a.prim) {
+                None => bound,
+                // plus the way into the instance's object space, which
+                // each backend rounds with its own inverse (Embree's in
+                // f32): a few ulps of the origin's coordinates, magnified by
+                // the map's condition number, along the ray at the hit's
+                // angle
+                Some((k, _)) => {
+                    let cond = scene.instances.placements[k].cond;
+                    let n = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
+                    let cos = n.normalize_or_zero().dot(ray.d.normalize()).abs();
+                    let reach = 3.0 * ray.o.abs().max_element();
+                    if cos > 0.0 {
+                        bound + gamma(32) * cond * reach / cos
+                    } else {
+                        f32::INFINITY
+                    }
+                }
+            }
+        }
     };
     (a.t - other_t).abs() <= bound
 }
