@@ -16,7 +16,7 @@
 //! imports this module, never the other way round.
 
 use crate::bsdf::Bxdf;
-use crate::scene::Scene;
+use crate::scene::{AlphaMask, Scene};
 use crate::settings::{IntegratorSettings, LIGHT_BVH_FROM, LightSampler};
 use std::fmt::Write;
 use std::str::FromStr;
@@ -108,7 +108,7 @@ impl Kernel {
 
 /// The effect names, in the order `plan` lists them. These names are fixed:
 /// scripts read them from `plan --json` and from the render report.
-pub const EFFECTS: [&str; 21] = [
+pub const EFFECTS: [&str; 22] = [
     "diffuse",
     "mirror",
     "glass",
@@ -133,6 +133,7 @@ pub const EFFECTS: [&str; 21] = [
     "spot_light",
     "normal_map",
     "bump_map",
+    "alpha_mask",
 ];
 
 /// Which kernel to run (`--plan`).
@@ -450,6 +451,25 @@ impl Plan {
             mapped(|m| m.bump.is_some()),
             "materials with a bump_map",
             "height-gradient lookup, perturbed dp/du x dp/dv normal, side checks against ng (integrator/path.rs, texture.rs)",
+        );
+        add(
+            "alpha_mask",
+            used_materials
+                .iter()
+                .filter_map(|m| {
+                    Some(match m.alpha_mask.as_ref()? {
+                        AlphaMask::Constant(a) => format!("`{}` (alpha {a})", m.name),
+                        AlphaMask::Texture(t) => format!(
+                            "`{}` (alpha texture {})",
+                            m.name,
+                            t.source()
+                                .map_or("in memory".into(), |p| p.display().to_string())
+                        ),
+                    })
+                })
+                .collect(),
+            "surfaces with an alpha mask",
+            "a stochastic opacity test on candidate hits inside the traversal (Embree filter functions, the Rust backends' filtered leaves), queries a ray at a time (scene/alpha.rs, accel)",
         );
         let finite_lights = finite_light_count(scene);
         let bvh = settings.light_sampler.picks_bvh(finite_lights);

@@ -27,7 +27,7 @@
 //! `bitmap` answers `eval_1` on an RGB image.
 
 use crate::error::{Error, Result};
-use crate::image::{read_exr, read_png_as};
+use crate::image::{read_exr, read_png_as, read_png_opacity};
 use crate::math::{Vec2, Vec3, luminance};
 use std::path::{Path, PathBuf};
 
@@ -41,6 +41,9 @@ pub struct ImageTexture {
     source: Option<PathBuf>,
     /// A PNG read without sRGB decoding.
     raw: bool,
+    /// Read by [`ImageTexture::load_opacity`] (a PNG's alpha channel, or its
+    /// raw values).
+    opacity: bool,
     /// The mean texel.
     mean: Vec3,
     /// The texel, when every texel is the same.
@@ -98,6 +101,30 @@ impl ImageTexture {
         })
     }
 
+    /// An opacity texture (an alpha mask): a PNG's alpha channel when it
+    /// has one, otherwise its values read raw; an EXR's R, G and B (read as
+    /// a scalar by [`ImageTexture::eval_scalar`]).
+    pub fn load_opacity(path: &Path) -> Result<Self> {
+        let is_png = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+        if !is_png || path.is_dir() {
+            return Self::load_as(path, true);
+        }
+        let (width, height, rgb) = read_png_opacity(path)?;
+        let texture = Self::from_linear_rgb(width, height, rgb).map_err(|e| match e {
+            Error::Settings(message) => Error::input(path, None, message),
+            other => other,
+        })?;
+        Ok(ImageTexture {
+            source: Some(path.to_path_buf()),
+            raw: true,
+            opacity: true,
+            ..texture
+        })
+    }
+
     /// A texture from linear RGB values, 3 per texel, row-major with the top
     /// row first.
     pub fn from_linear_rgb(width: u32, height: u32, rgb: Vec<f32>) -> Result<Self> {
@@ -138,10 +165,16 @@ impl ImageTexture {
             texels,
             source: None,
             raw: false,
+            opacity: false,
             mean,
             uniform,
             grey,
         })
+    }
+
+    /// Whether it was read as an opacity ([`ImageTexture::load_opacity`]).
+    pub fn is_opacity(&self) -> bool {
+        self.opacity
     }
 
     /// Whether a PNG was read raw (not decoded from sRGB).

@@ -110,6 +110,7 @@ fn bundled_scenes_round_trip_to_the_same_bits() {
         "materials.toml",
         "instances.toml",
         "many-lights.toml",
+        "cut-outs.toml",
     ] {
         round_trip(
             &Path::new(env!("CARGO_MANIFEST_DIR"))

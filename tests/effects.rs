@@ -96,6 +96,7 @@ fn general_kernel_gives_the_same_bits_on_every_bundled_scene_and_backend() {
         "cornell-spheres.toml",
         "materials.toml",
         "many-lights.toml",
+        "cut-outs.toml",
     ] {
         let scene = Scene::load(&bundled(name)).unwrap();
         for backend in Backend::available() {
@@ -234,6 +235,11 @@ f 1/1/1 2/2/2 3/3/3\nf 1/1/1 3/3/3 4/4/4\n";
             format!(
                 "{room}[[sphere]]\ncenter = [0.3, 0.5, 0.2]\nradius = 0.2\nmaterial = {{ emission = [3.0, 3.0, 3.0] }}\n"
             ),
+        ),        (
+            "alpha mask",
+            format!(
+                "{room}[[mesh]]\nfile = \"quad.obj\"\nalpha = \"tex.png\"\n[[mesh]]\nfile = \"quad.obj\"\nalpha = 0.4\ntransform = {{ translate = [0.2, 0.1, 0.3] }}\n"
+            ),
         ),
     ];
     for (what, body) in cases {
@@ -287,6 +293,17 @@ fn the_plan_names_what_each_scene_calls_for() {
             "environment_map",
             "sphere",
             "indirect"
+        ]
+    );
+    assert_eq!(
+        on("cut-outs.toml"),
+        [
+            "diffuse",
+            "texture",
+            "area_light",
+            "indirect",
+            "instancing",
+            "alpha_mask"
         ]
     );
     let scene = Scene::load(&bundled("cornell-box.toml")).unwrap();

@@ -19,6 +19,7 @@ fn build(b: Backend, p: &[Vec3], i: &[[u32; 3]], s: &[Sphere]) -> Box<dyn Accele
         indices: i,
         spheres: s,
         instances: Default::default(),
+        masked: false,
     };
     accel::build(b, soup, AccelOptions::default()).unwrap()
 }

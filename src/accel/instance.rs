@@ -20,7 +20,7 @@
 //! hit is ever culled, and ties in `t` go to the lower primitive as
 //! everywhere else.
 
-use super::{Accelerator, Hit};
+use super::{Accelerator, AlphaTest, Hit, HitFilter, Masks, Opaque};
 use crate::math::{Ray, Vec3};
 use glam::{Affine3A, DAffine3, DVec3};
 
@@ -201,7 +201,17 @@ pub struct InstanceSet<A> {
     pad_rate: f32,
 }
 
-impl<A: Accelerator> InstanceSet<A> {
+/// A prototype's structure as [`InstanceSet`] queries it: its triangles
+/// only, with a [`HitFilter`] (the placement's view of a scene's alpha
+/// masks).
+pub trait PrototypeQuery: Accelerator {
+    /// The closest triangle hit `filter` keeps.
+    fn closest_triangle<F: HitFilter>(&self, ray: &Ray, filter: &F) -> Option<Hit>;
+    /// Whether some triangle hit is kept by `filter`.
+    fn any_triangle<F: HitFilter>(&self, ray: &Ray, filter: &F) -> bool;
+}
+
+impl<A: PrototypeQuery> InstanceSet<A> {
     /// The set of `instances`, each prototype built by `build`; with `tree`,
     /// placements are culled by their boxes, otherwise scanned.
     pub fn new<E>(
@@ -362,8 +372,14 @@ impl<A: Accelerator> InstanceSet<A> {
     }
 
     /// The closest of `best` and the placements' hits (a placement's hit
-    /// wins at a smaller `t`, or at an equal `t` with a lower primitive).
-    pub fn closest(&self, ray: &Ray, best: Option<Hit>) -> Option<Hit> {
+    /// wins at a smaller `t`, or at an equal `t` with a lower primitive),
+    /// less those `alpha` ignores (asked with the render-space `ray`).
+    pub fn closest(
+        &self,
+        ray: &Ray,
+        best: Option<Hit>,
+        alpha: Option<&dyn AlphaTest>,
+    ) -> Option<Hit> {
         if self.placements.is_empty() || !ray.is_finite() {
             return best;
         }
@@ -373,7 +389,19 @@ impl<A: Accelerator> InstanceSet<A> {
             let p = &self.placements[k];
             let mut r = p.object_ray(ray);
             r.t_max = bound();
-            if let Some(h) = self.prototypes[p.prototype as usize].intersect(&r) {
+            let proto = &self.prototypes[p.prototype as usize];
+            let found = match alpha {
+                None => proto.closest_triangle(&r, &Opaque),
+                Some(alpha) => proto.closest_triangle(
+                    &r,
+                    &Masks {
+                        alpha,
+                        ray,
+                        first_prim: p.first_prim,
+                    },
+                ),
+            };
+            if let Some(h) = found {
                 let prim = p.first_prim + h.prim;
                 let better = match cell.get() {
                     None => true,
@@ -388,8 +416,9 @@ impl<A: Accelerator> InstanceSet<A> {
         cell.get()
     }
 
-    /// Whether any placement is hit in `(0, ray.t_max]`.
-    pub fn any(&self, ray: &Ray) -> bool {
+    /// Whether any placement is hit in `(0, ray.t_max]` (by a hit `alpha`
+    /// does not ignore).
+    pub fn any(&self, ray: &Ray, alpha: Option<&dyn AlphaTest>) -> bool {
         if self.placements.is_empty() || !ray.is_finite() {
             return false;
         }
@@ -399,7 +428,19 @@ impl<A: Accelerator> InstanceSet<A> {
             || ray.t_max,
             |k| {
                 let p = &self.placements[k];
-                hit = self.prototypes[p.prototype as usize].occluded(&p.object_ray(ray));
+                let proto = &self.prototypes[p.prototype as usize];
+                let r = p.object_ray(ray);
+                hit = match alpha {
+                    None => proto.any_triangle(&r, &Opaque),
+                    Some(alpha) => proto.any_triangle(
+                        &r,
+                        &Masks {
+                            alpha,
+                            ray,
+                            first_prim: p.first_prim,
+                        },
+                    ),
+                };
                 hit
             },
         );

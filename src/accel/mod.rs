@@ -61,6 +61,16 @@ pub trait Accelerator: Send + Sync {
     /// memory monitor reported), for `bench`'s memory-per-triangle column.
     fn memory_bytes(&self) -> usize;
 
+    /// [`Accelerator::intersect`] where `alpha` may cut holes: a candidate
+    /// hit that [`AlphaTest::ignores`] does not count, and the search goes
+    /// on past it. Every backend asks `alpha` about the same `(ray, prim)`
+    /// pairs with the render-space ray it was given, so the answer does not
+    /// depend on the backend (see [`AlphaTest`]).
+    fn intersect_masked(&self, ray: &Ray, alpha: &dyn AlphaTest) -> Option<Hit>;
+    /// [`Accelerator::occluded`] where `alpha` may cut holes (shadow rays
+    /// see through them).
+    fn occluded_masked(&self, ray: &Ray, alpha: &dyn AlphaTest) -> bool;
+
     /// [`Accelerator::intersect`] for each of `rays`, into `hits` (of the
     /// same length), with the same answers a ray at a time would get. A
     /// backend that traces packets overrides it; `coherence` says whether
@@ -80,6 +90,124 @@ pub trait Accelerator: Send + Sync {
         debug_assert_eq!(rays.len(), occluded.len());
         for (ray, o) in rays.iter().zip(occluded) {
             *o = self.occluded(ray);
+        }
+    }
+}
+
+/// Cut-out surfaces (alpha masks): which candidate hits a ray ignores.
+///
+/// A backend that finds a hit with `0 < t <= t_max` on primitive `prim`, at
+/// barycentrics `(u, v)` of the triangle it tested, asks
+/// [`AlphaTest::ignores`] before taking it; `ray` is always the render-space
+/// ray the query was given (never an instance's object-space copy), and
+/// `prim` the global primitive id of [`TriangleSoup`]'s numbering. The answer
+/// must be a function of those arguments alone (no state, no thread-local
+/// randomness), so that every backend, visiting candidates in whatever
+/// order, ignores the same hits and returns the same closest kept one.
+/// `(u, v)` is the one input the backends compute differently (Embree's
+/// barycentrics and the watertight routine's agree to a few ulps), which
+/// can change a textured mask's answer only where the texture's value at
+/// the two points straddles the ray's threshold.
+pub trait AlphaTest: Sync {
+    /// Whether `ray` passes through primitive `prim` at `(u, v)`.
+    fn ignores(&self, ray: &Ray, prim: u32, u: f32, v: f32) -> bool;
+}
+
+/// Which candidate hits the Rust backends' traversals keep: [`Opaque`]
+/// keeps all (and compiles to nothing), [`Masks`] asks an [`AlphaTest`].
+pub trait HitFilter {
+    /// Whether every hit is kept (lets the traversal skip the calls).
+    const OPAQUE: bool;
+    /// Whether the hit on primitive `prim` (numbered locally to the
+    /// structure being traversed) at `(u, v)` counts.
+    fn keep(&self, prim: u32, u: f32, v: f32) -> bool;
+}
+
+/// Every hit counts.
+pub struct Opaque;
+
+impl HitFilter for Opaque {
+    const OPAQUE: bool = true;
+    #[inline(always)]
+    fn keep(&self, _: u32, _: f32, _: f32) -> bool {
+        true
+    }
+}
+
+/// Hits count unless `alpha` ignores them for `ray` (render space);
+/// `first_prim` turns a structure's local primitive ids into global ones
+/// (a prototype's triangle `j` in a placement is `first_prim + j`).
+pub struct Masks<'a> {
+    /// The cut-outs.
+    pub alpha: &'a dyn AlphaTest,
+    /// The render-space ray of the query.
+    pub ray: &'a Ray,
+    /// The global id of the structure's primitive 0.
+    pub first_prim: u32,
+}
+
+impl HitFilter for Masks<'_> {
+    const OPAQUE: bool = false;
+    #[inline]
+    fn keep(&self, prim: u32, u: f32, v: f32) -> bool {
+        !self.alpha.ignores(self.ray, self.first_prim + prim, u, v)
+    }
+}
+
+/// An accelerator whose plain queries honour `alpha` (when there is one):
+/// for code that hands a `&dyn Accelerator` on (ray sets, parity, benches)
+/// and should see a scene's cut-outs. The path tracer asks for the masked
+/// queries itself.
+pub struct Masked<'a> {
+    /// The backend.
+    pub accel: &'a dyn Accelerator,
+    /// The cut-outs, if the scene has any.
+    pub alpha: Option<&'a dyn AlphaTest>,
+}
+
+impl Accelerator for Masked<'_> {
+    fn name(&self) -> &'static str {
+        self.accel.name()
+    }
+    fn memory_bytes(&self) -> usize {
+        self.accel.memory_bytes()
+    }
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        match self.alpha {
+            None => self.accel.intersect(ray),
+            Some(a) => self.accel.intersect_masked(ray, a),
+        }
+    }
+    fn occluded(&self, ray: &Ray) -> bool {
+        match self.alpha {
+            None => self.accel.occluded(ray),
+            Some(a) => self.accel.occluded_masked(ray, a),
+        }
+    }
+    fn intersect_masked(&self, ray: &Ray, alpha: &dyn AlphaTest) -> Option<Hit> {
+        self.accel.intersect_masked(ray, alpha)
+    }
+    fn occluded_masked(&self, ray: &Ray, alpha: &dyn AlphaTest) -> bool {
+        self.accel.occluded_masked(ray, alpha)
+    }
+    fn intersect_batch(&self, rays: &[Ray], hits: &mut [Option<Hit>], coherence: Coherence) {
+        match self.alpha {
+            None => self.accel.intersect_batch(rays, hits, coherence),
+            Some(a) => {
+                for (ray, hit) in rays.iter().zip(hits) {
+                    *hit = self.accel.intersect_masked(ray, a);
+                }
+            }
+        }
+    }
+    fn occluded_batch(&self, rays: &[Ray], occluded: &mut [bool], coherence: Coherence) {
+        match self.alpha {
+            None => self.accel.occluded_batch(rays, occluded, coherence),
+            Some(a) => {
+                for (ray, o) in rays.iter().zip(occluded) {
+                    *o = self.accel.occluded_masked(ray, a);
+                }
+            }
         }
     }
 }
@@ -109,6 +237,12 @@ pub struct TriangleSoup<'a> {
     pub spheres: &'a [Sphere],
     /// Prototype meshes and their placements.
     pub instances: Instances<'a>,
+    /// Whether some triangle may be cut out by an alpha mask (see
+    /// [`AlphaTest`]). Embree then attaches filter functions to its
+    /// triangle geometries, which cost each candidate hit a call, so a
+    /// scene without masks leaves this off; the Rust backends ignore it
+    /// (their traversal is compiled with and without a filter).
+    pub masked: bool,
 }
 
 impl<'a> TriangleSoup<'a> {
@@ -119,6 +253,7 @@ impl<'a> TriangleSoup<'a> {
             indices,
             spheres: &[],
             instances: Instances::default(),
+            masked: false,
         }
     }
 

@@ -3,10 +3,10 @@
 //! order, exactly as the BVH runs it in its leaves. Quadratic and slow; it is
 //! the oracle the other backends are checked against.
 
-use super::instance::InstanceSet;
+use super::instance::{InstanceSet, PrototypeQuery};
 use super::sphere::SphereSet;
 use super::triangle::{Tri4, WatertightRay};
-use super::{Accelerator, Hit, TriangleSoup};
+use super::{Accelerator, AlphaTest, Hit, HitFilter, Masks, Opaque, TriangleSoup};
 use crate::math::{Ray, Vec3};
 
 /// Brute force over a copy of the triangles, in blocks of four, then over
@@ -74,26 +74,71 @@ impl Accelerator for Naive {
         if !ray.is_finite() {
             return None;
         }
-        let wr = WatertightRay::new(ray);
-        let mut best: Option<Hit> = None;
-        let mut t_max = ray.t_max;
-        for (block, lanes) in self.blocks() {
-            wr.intersect4(block, lanes, t_max)
-                .fold_closest(block, &mut best, &mut t_max);
-        }
+        let best = self.closest_triangle(ray, &Opaque);
         let best = with_spheres(&self.spheres, ray, best);
-        self.instances.closest(ray, best)
+        self.instances.closest(ray, best, None)
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
         if !ray.is_finite() {
             return false;
         }
-        let wr = WatertightRay::new(ray);
-        self.blocks()
-            .any(|(block, lanes)| wr.intersect4(block, lanes, ray.t_max).mask != 0)
+        self.any_triangle(ray, &Opaque) || self.spheres.any(ray) || self.instances.any(ray, None)
+    }
+
+    fn intersect_masked(&self, ray: &Ray, alpha: &dyn AlphaTest) -> Option<Hit> {
+        if !ray.is_finite() {
+            return None;
+        }
+        let masks = Masks {
+            alpha,
+            ray,
+            first_prim: 0,
+        };
+        let best = self.closest_triangle(ray, &masks);
+        let best = with_spheres(&self.spheres, ray, best);
+        self.instances.closest(ray, best, Some(alpha))
+    }
+
+    fn occluded_masked(&self, ray: &Ray, alpha: &dyn AlphaTest) -> bool {
+        if !ray.is_finite() {
+            return false;
+        }
+        let masks = Masks {
+            alpha,
+            ray,
+            first_prim: 0,
+        };
+        self.any_triangle(ray, &masks)
             || self.spheres.any(ray)
-            || self.instances.any(ray)
+            || self.instances.any(ray, Some(alpha))
+    }
+}
+
+impl PrototypeQuery for Naive {
+    fn closest_triangle<F: HitFilter>(&self, ray: &Ray, filter: &F) -> Option<Hit> {
+        if !ray.is_finite() {
+            return None;
+        }
+        let wr = WatertightRay::new(ray);
+        let mut best: Option<Hit> = None;
+        let mut t_max = ray.t_max;
+        for (block, lanes) in self.blocks() {
+            wr.intersect4(block, lanes, t_max)
+                .fold_closest(block, &mut best, &mut t_max, filter);
+        }
+        best
+    }
+
+    fn any_triangle<F: HitFilter>(&self, ray: &Ray, filter: &F) -> bool {
+        if !ray.is_finite() {
+            return false;
+        }
+        let wr = WatertightRay::new(ray);
+        self.blocks().any(|(block, lanes)| {
+            wr.intersect4(block, lanes, ray.t_max)
+                .any_kept(block, filter)
+        })
     }
 }
 

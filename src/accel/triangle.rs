@@ -14,7 +14,7 @@
 //! self-intersection can happen and keeps small, distant triangles hit
 //! (see [`WatertightRay::intersect4`]).
 
-use super::Hit;
+use super::{Hit, HitFilter};
 use crate::math::{Ray, Vec3, gamma};
 use glam::Vec4;
 
@@ -347,18 +347,48 @@ impl Hits4 {
         })
     }
 
+    /// Whether some hit of `block` counts under `filter`.
+    #[inline]
+    pub fn any_kept<F: HitFilter>(&self, block: &Tri4, filter: &F) -> bool {
+        if F::OPAQUE {
+            return self.mask != 0;
+        }
+        let mut m = self.mask;
+        while m != 0 {
+            let l = m.trailing_zeros() as usize;
+            m &= m - 1;
+            if filter.keep(block.ids[l], self.u[l], self.v[l]) {
+                return true;
+            }
+        }
+        false
+    }
+
     /// Fold these hits of `block` into the closest hit so far, as if its
     /// triangles were tested one by one in lane order: a hit replaces `best`
     /// if it is closer than `t_max`, or at `t_max` with a lower original
     /// index (the tie rule of every backend). `t_max` follows `best`.
+    ///
+    /// `filter` is asked only about hits that would replace `best`, so an
+    /// [`Opaque`](super::Opaque) one costs nothing and a mask is evaluated
+    /// as rarely as the order allows; the result is the closest kept hit
+    /// whatever the order.
     #[inline]
-    pub fn fold_closest(&self, block: &Tri4, best: &mut Option<Hit>, t_max: &mut f32) {
+    pub fn fold_closest<F: HitFilter>(
+        &self,
+        block: &Tri4,
+        best: &mut Option<Hit>,
+        t_max: &mut f32,
+        filter: &F,
+    ) {
         let mut m = self.mask;
         while m != 0 {
             let l = m.trailing_zeros() as usize;
             m &= m - 1;
             let (t, id) = (self.t[l], block.ids[l]);
-            if t < *t_max || (t == *t_max && best.is_none_or(|b| id < b.prim)) {
+            if (t < *t_max || (t == *t_max && best.is_none_or(|b| id < b.prim)))
+                && (F::OPAQUE || filter.keep(id, self.u[l], self.v[l]))
+            {
                 *t_max = t;
                 *best = Some(Hit {
                     t,
@@ -542,7 +572,7 @@ mod tests {
         let hits = r.intersect4(&block, 0b111, f32::INFINITY);
         assert_eq!(hits.mask, 0b111);
         let (mut best, mut t_max) = (None, f32::INFINITY);
-        hits.fold_closest(&block, &mut best, &mut t_max);
+        hits.fold_closest(&block, &mut best, &mut t_max, &super::super::Opaque);
         assert_eq!(best.map(|h| h.prim), Some(3));
         // an earlier block's hit at the same t with a lower index stays
         let mut best = Some(Hit {
@@ -550,7 +580,7 @@ mod tests {
             ..best.unwrap()
         });
         let mut t_max = best.unwrap().t;
-        hits.fold_closest(&block, &mut best, &mut t_max);
+        hits.fold_closest(&block, &mut best, &mut t_max, &super::super::Opaque);
         assert_eq!(best.map(|h| h.prim), Some(1));
     }
 

@@ -64,6 +64,29 @@ pub fn read_png(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
     read_png_as(path, false)
 }
 
+/// A PNG as an opacity: its alpha channel when it has one, otherwise its
+/// stored values (as [`read_png_as`] with `raw`), each scaled to `[0, 1]`
+/// (alpha is linear by the PNG specification). `(width, height, rgb)` with
+/// the alpha repeated in all three channels, or the colour of an image
+/// without alpha.
+pub fn read_png_opacity(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
+    let mut reader = ::image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
+    reader.set_format(::image::ImageFormat::Png);
+    let img = reader.decode().map_err(|e| match e {
+        ::image::ImageError::IoError(e) => Error::io(path, e),
+        other => Error::input(path, None, format!("not a readable PNG file: {other}")),
+    })?;
+    if !img.color().has_alpha() {
+        return read_png_as(path, true);
+    }
+    let img = img.into_rgba16();
+    let rgb = img
+        .pixels()
+        .flat_map(|p| [p.0[3] as f32 / u16::MAX as f32; 3])
+        .collect();
+    Ok((img.width(), img.height(), rgb))
+}
+
 /// [`read_png`], or with `raw` the stored values as they are, scaled to
 /// `[0, 1]` and not decoded from sRGB (Mitsuba's `bitmap` with `raw = true`:
 /// normal maps, roughness maps and other data that is not a colour).

@@ -75,6 +75,10 @@ type TraceFn<'a> = fn(&PathTracer<'a>, &mut [Lane], &mut RayCounts);
 pub struct PathTracer<'a> {
     scene: &'a Scene,
     accel: &'a dyn Accelerator,
+    /// The scene's alpha masks, if it has any: queries then go through
+    /// [`Accelerator::intersect_masked`] and
+    /// [`Accelerator::occluded_masked`], a ray at a time.
+    alpha: Option<&'a dyn crate::accel::AlphaTest>,
     lights: Lights,
     settings: IntegratorSettings,
     /// Per material: its Lambertian albedo (the diffuse-only kernels' table).
@@ -152,6 +156,7 @@ impl<'a> PathTracer<'a> {
         PathTracer {
             scene,
             accel,
+            alpha: scene.alpha_test(),
             lights: Lights::with_sampler(scene, settings.light_sampler),
             settings,
             albedo: scene

@@ -246,8 +246,16 @@ impl<'a> PathTracer<'a> {
             } else {
                 Coherence::Incoherent
             };
-            self.accel
-                .intersect_batch(&batch[..n], &mut hits[..n], coherence);
+            match self.alpha {
+                None => self
+                    .accel
+                    .intersect_batch(&batch[..n], &mut hits[..n], coherence),
+                Some(alpha) => {
+                    for (ray, hit) in batch[..n].iter().zip(&mut hits[..n]) {
+                        *hit = self.accel.intersect_masked(ray, alpha);
+                    }
+                }
+            }
             if camera {
                 rays.camera += n as u64;
             } else {
@@ -478,8 +486,18 @@ impl<'a> PathTracer<'a> {
                 continue;
             }
             rays.shadow += n as u64;
-            self.accel
-                .occluded_batch(&shadow[..n], &mut occluded[..n], Coherence::Incoherent);
+            match self.alpha {
+                None => self.accel.occluded_batch(
+                    &shadow[..n],
+                    &mut occluded[..n],
+                    Coherence::Incoherent,
+                ),
+                Some(alpha) => {
+                    for (ray, o) in shadow[..n].iter().zip(&mut occluded[..n]) {
+                        *o = self.accel.occluded_masked(ray, alpha);
+                    }
+                }
+            }
             for (p, &o) in pending[..n].iter().zip(&occluded[..n]) {
                 if !o {
                     sum[p.lane] += p.contribution;
@@ -707,7 +725,11 @@ impl<'a> PathTracer<'a> {
         let mut ray = *ray;
         let mut normal = None;
         for _ in 0..super::AUX_DELTA_CHAIN {
-            let Some(hit) = self.accel.intersect(&ray) else {
+            let found = match self.alpha {
+                None => self.accel.intersect(&ray),
+                Some(alpha) => self.accel.intersect_masked(&ray, alpha),
+            };
+            let Some(hit) = found else {
                 let env = self.lights.environment(ray.d).clamp(Vec3::ZERO, Vec3::ONE);
                 return (env, normal.unwrap_or(Vec3::ZERO));
             };

@@ -6,7 +6,7 @@
 //! before it becomes f32.
 
 use super::instances::{NO_OVERRIDE, PrototypeShading, SceneInstances};
-use super::{Material, MeshData, MeshRange, Scene, Transform};
+use super::{AlphaMask, Material, MeshData, MeshRange, Scene, Transform};
 use crate::accel::{Placement, Prototype};
 use crate::camera::{CameraDesc, ThinLens};
 use crate::error::{Error, Result};
@@ -276,10 +276,23 @@ impl SceneBuilder {
                 mesh.name
             ));
         }
+        let used = |m: usize| mesh.tri_material.iter().any(|&t| t as usize == m);
+        if let Some((_, m)) = mesh.materials.iter().enumerate().find(|(i, m)| {
+            m.alpha_mask.is_some()
+                && (m.emission.max_element() > 0.0 || m.maps.emission.is_some())
+                && used(*i)
+        }) {
+            return fail(format!(
+                "mesh `{}`: material `{}` emits light and has an alpha mask; an emitter cannot be cut out (light sampling would still see the holes)",
+                mesh.name, m.name
+            ));
+        }
         if mesh.uvs.is_empty() {
-            let used = |m: usize| mesh.tri_material.iter().any(|&t| t as usize == m);
             if let Some((_, m)) = mesh.materials.iter().enumerate().find(|(i, m)| {
-                (m.texture.is_some() || !m.textured().is_empty() || m.maps.perturbs_normal())
+                (m.texture.is_some()
+                    || !m.textured().is_empty()
+                    || m.maps.perturbs_normal()
+                    || m.alpha_mask.as_ref().is_some_and(AlphaMask::is_textured))
                     && used(*i)
             }) {
                 return fail(format!(
@@ -347,8 +360,27 @@ impl SceneBuilder {
             ));
         }
         self.instanced_triangles = total;
+        // an override keeps the prototype's cut-out (a mesh's `alpha`
+        // belongs to its shape, whatever material covers it)
+        let base = proto.base_material as usize;
+        let mask = proto
+            .mesh
+            .tri_material
+            .iter()
+            .find_map(|&m| self.scene.materials[base + m as usize].alpha_mask.clone());
         let material = match material {
-            Some(m) => {
+            Some(mut m) => {
+                if m.alpha_mask.is_none() {
+                    m.alpha_mask = mask;
+                }
+                if m.alpha_mask.is_some()
+                    && (m.emission.max_element() > 0.0 || m.maps.emission.is_some())
+                {
+                    return fail(format!(
+                        "instance of `{}`: its material emits light and the mesh has an alpha mask; an emitter cannot be cut out",
+                        crate::error::one_line(&proto.mesh.name)
+                    ));
+                }
                 self.scene.materials.push(m);
                 self.scene.materials.len() as u32 - 1
             }
@@ -542,6 +574,13 @@ impl SceneBuilder {
         line: Option<usize>,
     ) -> Result<()> {
         let s = &mut self.scene;
+        if material.alpha_mask.is_some() {
+            return Err(Error::input(
+                &s.source,
+                line,
+                "a sphere cannot be cut out by an alpha mask (masks apply to triangle meshes)",
+            ));
+        }
         if self.spheres.len() as u64 >= self.max_triangles {
             return Err(Error::input(
                 &s.source,

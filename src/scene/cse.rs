@@ -703,6 +703,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             // the courses add emission whichever side is seen
             two_sided: emission != Vec3::ZERO,
             maps: Default::default(),
+            alpha_mask: None,
         });
     }
     if let Some(line) = ignored_ambient {
@@ -750,6 +751,7 @@ pub fn load(path: &Path) -> Result<Scene> {
                 emission: *radiance,
                 two_sided: false,
                 maps: Default::default(),
+                alpha_mask: None,
             });
         }
         b.add_mesh_matrix(mesh, DAffine3::IDENTITY, quads.first().map(|q| q.2))?;

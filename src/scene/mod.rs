@@ -11,6 +11,7 @@
 //! (or folder) per format: `toml_file`, `obj`, `ply`, `mitsuba`, `collada`,
 //! `cse`.
 
+mod alpha;
 mod builder;
 mod collada;
 mod cse;
@@ -37,6 +38,7 @@ use crate::texture::ImageTexture;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+pub use alpha::{AlphaMask, threshold as alpha_threshold};
 pub use builder::{SceneBuilder, WorldCamera, render_origin};
 use input::read_scene_text;
 pub(crate) use input::{Content, not_a_file, read_bounded};
@@ -66,6 +68,9 @@ pub struct Material {
     pub two_sided: bool,
     /// Textures on the other parameters, and a normal or bump map.
     pub maps: Maps,
+    /// Cut-outs: the surface's opacity (see [`AlphaMask`]); `None` is
+    /// opaque.
+    pub alpha_mask: Option<AlphaMask>,
 }
 
 impl Material {
@@ -126,6 +131,7 @@ impl Default for Material {
             emission: Vec3::ZERO,
             two_sided: false,
             maps: Maps::default(),
+            alpha_mask: None,
         }
     }
 }
@@ -489,6 +495,7 @@ impl Scene {
             indices: &self.indices,
             spheres: &self.spheres,
             instances: self.instances.soup(),
+            masked: self.alpha_test().is_some(),
         }
     }
 

@@ -44,8 +44,8 @@
 
 use super::procedural::{self, Shape};
 use super::{
-    BumpMap, Maps, Material, MeshData, Scene, SceneBuilder, Transform, WorldCamera, load_obj_mesh,
-    load_ply_mesh,
+    AlphaMask, BumpMap, Maps, Material, MeshData, Scene, SceneBuilder, Transform, WorldCamera,
+    load_obj_mesh, load_ply_mesh,
 };
 use crate::bsdf::{
     Bsdf, Conductor, Diffuse, Distribution, Glass, Lobe, Microfacet, Mirror, Phong, Plastic,
@@ -98,6 +98,8 @@ struct ProceduralToml {
     name: Option<String>,
     #[serde(default)]
     instance_only: bool,
+    /// Opacity: a number, an image file, or `{ texture, raw }`.
+    alpha: Option<toml::Value>,
 }
 
 fn default_displacement() -> f32 {
@@ -145,6 +147,8 @@ struct MeshToml {
     /// Stored for instances only, not placed itself.
     #[serde(default)]
     instance_only: bool,
+    /// Opacity: a number, an image file, or `{ texture, raw }`.
+    alpha: Option<toml::Value>,
 }
 
 #[derive(Deserialize)]
@@ -501,10 +505,72 @@ fn check_colour(path: &Path, line: Option<usize>, what: &str, c: Rgb) -> Result<
     Ok(v)
 }
 
+/// A mesh's `alpha`: a number in `[0, 1]`, an image file (a PNG's alpha
+/// channel, or its values read raw: [`ImageTexture::load_opacity`]), or
+/// `{ texture = "file", raw = bool }` (the image's scalar value, decoded
+/// from sRGB unless `raw`, which is the default).
+fn parse_alpha(
+    path: &Path,
+    line: Option<usize>,
+    value: &toml::Value,
+    textures: &mut Textures,
+) -> Result<AlphaMask> {
+    let fail = |m: String| Error::input(path, line, m);
+    let expected = "alpha must be a number in [0, 1], an image file name, or { texture = \"file\", raw = true }";
+    match value {
+        toml::Value::Float(_) | toml::Value::Integer(_) => {
+            let a = match value {
+                toml::Value::Float(f) => *f,
+                toml::Value::Integer(i) => *i as f64,
+                _ => unreachable!("matched above"),
+            };
+            if !(0.0..=1.0).contains(&a) {
+                return Err(fail(format!("alpha = {a} out of range ([0, 1])")));
+            }
+            Ok(AlphaMask::Constant(a as f32))
+        }
+        toml::Value::String(file) => Ok(AlphaMask::Texture(textures.opacity(path, line, file)?)),
+        toml::Value::Table(t) => {
+            let mut file = None;
+            let mut raw = true;
+            for (k, v) in t {
+                match (k.as_str(), v) {
+                    ("texture", toml::Value::String(f)) => file = Some(f),
+                    ("raw", toml::Value::Boolean(r)) => raw = *r,
+                    _ => return Err(fail(format!("{expected} (unexpected key `{k}`)"))),
+                }
+            }
+            let file = file.ok_or_else(|| fail(expected.to_string()))?;
+            Ok(AlphaMask::Texture(textures.get(path, line, file, raw)?))
+        }
+        _ => Err(fail(expected.to_string())),
+    }
+}
+
+/// Give every material of `mesh` the opacity `mask` (see
+/// [`super::AlphaMask`]); an emitting material cannot be cut out.
+fn set_alpha(path: &Path, line: Option<usize>, mesh: &mut MeshData, mask: AlphaMask) -> Result<()> {
+    for m in &mut mesh.materials {
+        if m.emission.max_element() > 0.0 || m.maps.emission.is_some() {
+            return Err(Error::input(
+                path,
+                line,
+                format!(
+                    "alpha: mesh `{}` emits light, and an emitter cannot be cut out (light sampling would still see the holes)",
+                    crate::error::one_line(&mesh.name)
+                ),
+            ));
+        }
+        m.alpha_mask = Some(mask.clone());
+    }
+    Ok(())
+}
+
 /// Textures named by the scene file, each loaded once per decoding.
 #[derive(Default)]
 struct Textures {
     loaded: HashMap<(PathBuf, bool), Arc<ImageTexture>>,
+    opacity: HashMap<PathBuf, Arc<ImageTexture>>,
 }
 
 impl Textures {
@@ -534,6 +600,35 @@ impl Textures {
                 .map_err(|e| Error::input(path, line, format!("texture `{file}`: {e}")))?,
         );
         self.loaded.insert((full, raw), t.clone());
+        Ok(t)
+    }
+
+    /// The opacity texture at `file` ([`ImageTexture::load_opacity`]),
+    /// loaded on first use.
+    fn opacity(
+        &mut self,
+        path: &Path,
+        line: Option<usize>,
+        file: &str,
+    ) -> Result<Arc<ImageTexture>> {
+        let full = path.parent().unwrap_or(Path::new("")).join(file);
+        if let Some(t) = self.opacity.get(&full) {
+            return Ok(t.clone());
+        }
+        if let Some(why) = super::not_a_file(&full) {
+            return Err(Error::input(
+                path,
+                line,
+                format!(
+                    "alpha texture `{file}` {why} (expected a .png or .exr file next to the scene)"
+                ),
+            ));
+        }
+        let t = Arc::new(
+            ImageTexture::load_opacity(&full)
+                .map_err(|e| Error::input(path, line, format!("alpha texture `{file}`: {e}")))?,
+        );
+        self.opacity.insert(full, t.clone());
         Ok(t)
     }
 }
@@ -951,6 +1046,10 @@ pub fn load(path: &Path) -> Result<Scene> {
                 apply_material(path, line, over, mat, &mut textures)?;
             }
         }
+        if let Some(alpha) = &m.alpha {
+            let mask = parse_alpha(path, line, alpha, &mut textures)?;
+            set_alpha(path, line, &mut mesh, mask)?;
+        }
         let transform = parse_transform(path, line, m.transform.as_ref())?;
         named.add(
             &mut b,
@@ -1019,7 +1118,12 @@ pub fn load(path: &Path) -> Result<Scene> {
         let transform = parse_transform(path, line, p.transform.as_ref())?;
         let name = format!("procedural {} #{i} ({tris} triangles)", p.kind);
         let name = p.name.clone().unwrap_or(name);
-        let mesh = procedural::generate(shape, triangles, p.displacement, p.seed, &name, material);
+        let mut mesh =
+            procedural::generate(shape, triangles, p.displacement, p.seed, &name, material);
+        if let Some(alpha) = &p.alpha {
+            let mask = parse_alpha(path, line, alpha, &mut textures)?;
+            set_alpha(path, line, &mut mesh, mask)?;
+        }
         named.add(
             &mut b,
             line,

@@ -46,10 +46,10 @@ mod tests;
 pub use build::TreeStats;
 pub use node::{LEAF_MAX, MAX_TRIANGLES};
 
-use super::instance::InstanceSet;
+use super::instance::{InstanceSet, PrototypeQuery};
 use super::sphere::SphereSet;
 use super::triangle::Tri4;
-use super::{Accelerator, Hit, TriangleSoup};
+use super::{Accelerator, AlphaTest, Hit, HitFilter, Masks, Opaque, TriangleSoup};
 use crate::error::{Error, Result};
 use crate::math::Ray;
 use build::PrimRef;
@@ -192,14 +192,45 @@ impl Accelerator for Bvh {
     }
 
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let best = self.closest_hit(ray);
+        let best = self.closest_hit(ray, &Opaque);
         let best = super::naive::with_spheres(&self.spheres, ray, best);
-        self.instances.closest(ray, best)
+        self.instances.closest(ray, best, None)
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
-        self.any_hit(ray)
+        self.any_hit(ray, &Opaque)
             || (!self.spheres.is_empty() && ray.is_finite() && self.spheres.any(ray))
-            || self.instances.any(ray)
+            || self.instances.any(ray, None)
+    }
+
+    fn intersect_masked(&self, ray: &Ray, alpha: &dyn AlphaTest) -> Option<Hit> {
+        let masks = Masks {
+            alpha,
+            ray,
+            first_prim: 0,
+        };
+        let best = self.closest_hit(ray, &masks);
+        let best = super::naive::with_spheres(&self.spheres, ray, best);
+        self.instances.closest(ray, best, Some(alpha))
+    }
+
+    fn occluded_masked(&self, ray: &Ray, alpha: &dyn AlphaTest) -> bool {
+        let masks = Masks {
+            alpha,
+            ray,
+            first_prim: 0,
+        };
+        self.any_hit(ray, &masks)
+            || (!self.spheres.is_empty() && ray.is_finite() && self.spheres.any(ray))
+            || self.instances.any(ray, Some(alpha))
+    }
+}
+
+impl PrototypeQuery for Bvh {
+    fn closest_triangle<F: HitFilter>(&self, ray: &Ray, filter: &F) -> Option<Hit> {
+        self.closest_hit(ray, filter)
+    }
+    fn any_triangle<F: HitFilter>(&self, ray: &Ray, filter: &F) -> bool {
+        self.any_hit(ray, filter)
     }
 }

@@ -37,8 +37,8 @@
 
 use super::node::{Aabb, ChildRef, Node, WIDTH};
 use super::{Bvh, STACK_SIZE};
-use crate::accel::Hit;
 use crate::accel::triangle::WatertightRay;
+use crate::accel::{Hit, HitFilter};
 use crate::math::{Ray, Vec3, next_float_down, next_float_up};
 use glam::Vec4;
 
@@ -180,7 +180,9 @@ struct Entry {
 impl Bvh {
     /// The closest hit with `0 < t <= ray.t_max`; equal `t` goes to the
     /// lowest original index.
-    pub(super) fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+    ///
+    /// `filter` decides which triangle hits count (see [`HitFilter`]).
+    pub(crate) fn closest_hit<F: HitFilter>(&self, ray: &Ray, filter: &F) -> Option<Hit> {
         let mut cur = self.root?;
         if !ray.is_finite() {
             return None;
@@ -259,7 +261,7 @@ impl Bvh {
                 for (k, block) in self.blocks[first..first + n].iter().enumerate() {
                     let lanes = if k + 1 == n { cur.last_lanes() } else { 0b1111 };
                     wr.intersect4(block, lanes, t_max)
-                        .fold_closest(block, &mut best, &mut t_max);
+                        .fold_closest(block, &mut best, &mut t_max, filter);
                 }
             }
             // pop the next child the ray can still reach before t_max
@@ -278,7 +280,7 @@ impl Bvh {
     }
 
     /// Whether any hit exists with `0 < t <= ray.t_max`.
-    pub(super) fn any_hit(&self, ray: &Ray) -> bool {
+    pub(crate) fn any_hit<F: HitFilter>(&self, ray: &Ray, filter: &F) -> bool {
         let Some(mut cur) = self.root else {
             return false;
         };
@@ -317,7 +319,7 @@ impl Bvh {
                 let (first, n) = (cur.block(), cur.blocks());
                 for (k, block) in self.blocks[first..first + n].iter().enumerate() {
                     let lanes = if k + 1 == n { cur.last_lanes() } else { 0b1111 };
-                    if wr.intersect4(block, lanes, t_max).mask != 0 {
+                    if wr.intersect4(block, lanes, t_max).any_kept(block, filter) {
                         return true;
                     }
                 }

@@ -11,8 +11,10 @@
 //! Layout:
 //! - `sys`: raw bindings (bindgen at build time for Embree 3, `embree4-sys`
 //!   for Embree 4) plus the C macros and inline functions written in Rust;
-//! - `shim`: `rtcIntersect1` / `rtcOccluded1`, the only calls whose
-//!   signatures differ between Embree 3 and 4;
+//! - `shim`: the query calls (`rtcIntersect1`, `rtcOccluded1` and their
+//!   16-wide forms), whose signatures differ between Embree 3 and 4;
+//! - `filter`: the query context that carries an alpha mask to Embree's
+//!   filter function, and that function;
 //! - `device`, `scene`: RAII owners of `RTCDevice` and `RTCScene` (handles in
 //!   `NonNull`, released in `Drop`; a scene owns its device and releases its
 //!   own handle first, and a geometry under construction borrows the device,
@@ -38,6 +40,7 @@
 //! `t_max == 0` never reach Embree: their hit range is empty.
 
 mod device;
+mod filter;
 mod scene;
 mod shim;
 mod sys;
@@ -47,8 +50,9 @@ mod user;
 mod tests;
 
 use self::device::Device;
+use self::filter::Query;
 use self::scene::Scene;
-use super::{AccelOptions, Accelerator, Coherence, Hit, TriangleSoup};
+use super::{AccelOptions, Accelerator, AlphaTest, Coherence, Hit, TriangleSoup};
 use crate::error::Result;
 use crate::math::Ray;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -281,12 +285,8 @@ impl Accelerator for EmbreeAccel {
         for (rays, hits) in rays.chunks(PACKET).zip(hits.chunks_mut(PACKET)) {
             let valid = self.packet(rays, &mut packet.ray);
             packet.hit = sys::no_hit16();
-            shim::intersect16(
-                &self.scene,
-                &valid,
-                &mut packet,
-                coherence == Coherence::Coherent,
-            );
+            let mut query = Query::new(self, None, coherence == Coherence::Coherent);
+            shim::intersect16(&self.scene, &mut query, &valid, &mut packet);
             for (i, hit) in hits.iter_mut().enumerate() {
                 *hit = if valid.0[i] != 0 {
                     self.lane_hit(&packet, i)
@@ -308,12 +308,8 @@ impl Accelerator for EmbreeAccel {
         let mut packet = sys::ray16();
         for (rays, out) in rays.chunks(PACKET).zip(occluded.chunks_mut(PACKET)) {
             let valid = self.packet(rays, &mut packet);
-            shim::occluded16(
-                &self.scene,
-                &valid,
-                &mut packet,
-                coherence == Coherence::Coherent,
-            );
+            let mut query = Query::new(self, None, coherence == Coherence::Coherent);
+            shim::occluded16(&self.scene, &mut query, &valid, &mut packet);
             for (i, o) in out.iter_mut().enumerate() {
                 *o = valid.0[i] != 0 && packet.tfar[i] == f32::NEG_INFINITY;
             }
@@ -329,6 +325,27 @@ impl Accelerator for EmbreeAccel {
     }
 
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        self.closest(ray, None)
+    }
+
+    fn occluded(&self, ray: &Ray) -> bool {
+        self.blocked(ray, None)
+    }
+
+    fn intersect_masked(&self, ray: &Ray, alpha: &dyn AlphaTest) -> Option<Hit> {
+        self.closest(ray, Some(alpha))
+    }
+
+    fn occluded_masked(&self, ray: &Ray, alpha: &dyn AlphaTest) -> bool {
+        self.blocked(ray, Some(alpha))
+    }
+}
+
+impl EmbreeAccel {
+    /// `rtcIntersect1`, with `alpha` cutting holes when the scene was built
+    /// masked (see `filter`).
+    #[inline]
+    fn closest(&self, ray: &Ray, alpha: Option<&dyn AlphaTest>) -> Option<Hit> {
         if !self.accepts(ray) {
             return None;
         }
@@ -336,7 +353,8 @@ impl Accelerator for EmbreeAccel {
             ray: to_rtc_ray(ray, self.tnear),
             hit: no_hit(),
         };
-        shim::intersect1(&self.scene, &mut rayhit);
+        let mut query = Query::new(self, alpha.map(|a| (a, ray)), false);
+        shim::intersect1(&self.scene, &mut query, &mut rayhit);
         let hit = rayhit.hit;
         if hit.geomID == sys::RTC_INVALID_GEOMETRY_ID {
             return None;
@@ -349,12 +367,15 @@ impl Accelerator for EmbreeAccel {
         })
     }
 
-    fn occluded(&self, ray: &Ray) -> bool {
+    /// `rtcOccluded1`, with `alpha` as in [`EmbreeAccel::closest`].
+    #[inline]
+    fn blocked(&self, ray: &Ray, alpha: Option<&dyn AlphaTest>) -> bool {
         if !self.accepts(ray) {
             return false;
         }
         let mut rtc_ray = to_rtc_ray(ray, self.tnear);
-        shim::occluded1(&self.scene, &mut rtc_ray);
+        let mut query = Query::new(self, alpha.map(|a| (a, ray)), false);
+        shim::occluded1(&self.scene, &mut query, &mut rtc_ray);
         rtc_ray.tfar == f32::NEG_INFINITY
     }
 }

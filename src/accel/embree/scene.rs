@@ -78,14 +78,14 @@ impl Scene {
         scene.device.check("rtcNewScene")?;
         configure(&scene.device, scene.raw(), options)?;
         if !soup.indices.is_empty() {
-            let id = attach_triangles(&scene.device, scene.raw(), soup)?;
+            let id = attach_triangles(&scene.device, scene.raw(), soup, soup.masked)?;
             debug_assert_eq!(id, 0, "the first geometry of a fresh scene gets ID 0");
         }
         if !soup.spheres.is_empty() {
             scene.sphere_geom = scene.attach_spheres(soup.spheres)?;
         }
         if !soup.instances.is_empty() {
-            scene.attach_instances(soup.instances, options)?;
+            scene.attach_instances(soup.instances, options, soup.masked)?;
         }
         // SAFETY: as above; after this call the scene is never modified again.
         unsafe { sys::rtcCommitScene(scene.raw()) };
@@ -113,7 +113,12 @@ impl Scene {
     /// placement (its object-to-render matrix, column-major 3 x 4), attached
     /// in placement order with consecutive IDs. Only during
     /// [`Scene::build`], before the commit.
-    fn attach_instances(&mut self, instances: Instances<'_>, options: AccelOptions) -> Result<()> {
+    fn attach_instances(
+        &mut self,
+        instances: Instances<'_>,
+        options: AccelOptions,
+        masked: bool,
+    ) -> Result<()> {
         for p in instances.prototypes {
             let soup = TriangleSoup::triangles(&p.positions, &p.indices);
             validate(soup)?;
@@ -126,7 +131,7 @@ impl Scene {
             self.prototypes.push(child);
             configure(&self.device, child.as_ptr(), options)?;
             if !p.indices.is_empty() {
-                attach_triangles(&self.device, child.as_ptr(), soup)?;
+                attach_triangles(&self.device, child.as_ptr(), soup, masked)?;
             }
             // SAFETY: `child` is live and filled; it is never modified after
             // this commit (instances only read it).
@@ -239,8 +244,15 @@ impl Scene {
 
 /// Create a triangle geometry holding copies of the soup's triangles,
 /// commit it and attach it to `scene` (a live, uncommitted scene of
-/// `device`, during [`Scene::build`]); returns its geometry ID.
-fn attach_triangles(device: &Device, scene: sys::RTCScene, soup: TriangleSoup<'_>) -> Result<u32> {
+/// `device`, during [`Scene::build`]); returns its geometry ID. With
+/// `masked`, the geometry calls [`super::filter::alpha_filter`] on every
+/// candidate hit, of closest-hit and occlusion queries alike.
+fn attach_triangles(
+    device: &Device,
+    scene: sys::RTCScene,
+    soup: TriangleSoup<'_>,
+    masked: bool,
+) -> Result<u32> {
     // SAFETY: `device` is live; TRIANGLE is a valid geometry type.
     let raw = unsafe { sys::rtcNewGeometry(device.raw(), sys::RTCGeometryType::TRIANGLE) };
     let geometry = NonNull::new(raw).map(|handle| Geometry { handle, device });
@@ -272,6 +284,22 @@ fn attach_triangles(device: &Device, scene: sys::RTCScene, soup: TriangleSoup<'_
         std::ptr::copy_nonoverlapping(soup.indices.as_ptr(), indices.as_ptr(), soup.indices.len())
     };
 
+    if masked {
+        // SAFETY: `geometry` is live and uncommitted; `alpha_filter` is an
+        // `extern "C"` function with the `RTCFilterFunctionN` signature that
+        // lives for the whole program, and every query on a scene built with
+        // `masked` passes the context it expects (`filter::Query`).
+        unsafe {
+            sys::rtcSetGeometryIntersectFilterFunction(
+                geometry.raw(),
+                Some(super::filter::alpha_filter),
+            );
+            sys::rtcSetGeometryOccludedFilterFunction(
+                geometry.raw(),
+                Some(super::filter::alpha_filter),
+            );
+        }
+    }
     // SAFETY: `geometry` is live and its buffers are filled; every index
     // is below the vertex count (checked by `validate`).
     unsafe { sys::rtcCommitGeometry(geometry.raw()) };

@@ -12,7 +12,7 @@
 //! median over the repetitions, measured on the same thread.
 
 use super::throughput::median;
-use crate::accel::{self, AccelOptions, Accelerator, Backend, Coherence, Hit};
+use crate::accel::{self, AccelOptions, Accelerator, AlphaTest, Backend, Coherence, Hit, Masked};
 use crate::error::Result;
 use crate::integrator::{PathTracer, RayCounts};
 use crate::math::Ray;
@@ -149,6 +149,18 @@ impl Accelerator for Recorder<'_> {
         self.record(rays, true, coherence);
         self.inner.occluded_batch(rays, occluded, coherence);
     }
+
+    // masked queries are recorded as plain ones: the replay runs them
+    // through the scene's masks again (`Masked`)
+    fn intersect_masked(&self, ray: &Ray, alpha: &dyn AlphaTest) -> Option<Hit> {
+        self.record(std::slice::from_ref(ray), false, Coherence::Incoherent);
+        self.inner.intersect_masked(ray, alpha)
+    }
+
+    fn occluded_masked(&self, ray: &Ray, alpha: &dyn AlphaTest) -> bool {
+        self.record(std::slice::from_ref(ray), true, Coherence::Incoherent);
+        self.inner.occluded_masked(ray, alpha)
+    }
 }
 
 /// Replay `log` against `accel`; returns a checksum of the answers (so the
@@ -222,7 +234,11 @@ pub fn run(
         let out = render(&tracer, &camera, &rs, &|| {})?;
         render_times.push(out.seconds);
         let t = Instant::now();
-        let found = replay(accel.as_ref(), &log);
+        let masked = Masked {
+            accel: accel.as_ref(),
+            alpha: scene.alpha_test(),
+        };
+        let found = replay(&masked, &log);
         query_times.push(t.elapsed().as_secs_f64());
         std::hint::black_box(found);
         progress(&format!("repetition {} of {reps} done", rep + 1));

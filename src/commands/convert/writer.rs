@@ -32,7 +32,7 @@ use crate::bsdf::{Bsdf, Distribution, Lobe};
 use crate::error::{Error, Result};
 use crate::image::{self, OutputOptions};
 use crate::math::{Vec2, Vec3};
-use crate::scene::{Material, NO_OVERRIDE, Scene};
+use crate::scene::{AlphaMask, Material, NO_OVERRIDE, Scene};
 use crate::settings::{DirectStrategy, Roulette};
 use crate::texture::ImageTexture;
 use std::fmt::Write;
@@ -116,8 +116,11 @@ impl Writer<'_> {
         Ok(name)
     }
 
-    /// The inline `material = {...}` of `m`.
-    fn material(&mut self, m: &Material) -> Result<String> {
+    /// The inline `material = {...}` of `m`, and the mesh's `alpha` key
+    /// line when it has a mask (empty otherwise): an opacity texture is
+    /// written as the linear values it was read to, which `alpha = "f.exr"`
+    /// reads back as they are.
+    fn material(&mut self, m: &Material) -> Result<(String, String)> {
         let mut keys = Vec::new();
         match &m.bsdf {
             Bsdf::Diffuse(d) => {
@@ -191,7 +194,12 @@ impl Writer<'_> {
         if m.two_sided {
             keys.push("two_sided = true".to_string());
         }
-        Ok(format!("{{ {} }}", keys.join(", ")))
+        let alpha = match &m.alpha_mask {
+            None => String::new(),
+            Some(AlphaMask::Constant(a)) => format!("alpha = {}\n", num(*a)),
+            Some(AlphaMask::Texture(_)) => format!("alpha = \"{}\"\n", next()),
+        };
+        Ok((format!("{{ {} }}", keys.join(", ")), alpha))
     }
 
     /// Triangles `range` as an OBJ file; returns its name.
@@ -311,6 +319,9 @@ fn material_textures(m: &Material) -> Vec<&Arc<ImageTexture>> {
     let mut v: Vec<&Arc<ImageTexture>> = m.textured().into_iter().map(|(_, t)| t).collect();
     v.extend(m.maps.normal.as_ref());
     v.extend(m.maps.bump.as_ref().map(|b| &b.texture));
+    if let Some(AlphaMask::Texture(t)) = &m.alpha_mask {
+        v.push(t);
+    }
     v
 }
 
@@ -428,8 +439,11 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
     // meshes: runs of consecutive triangles with one material
     for (k, (range, mat)) in runs(&scene.tri_material).into_iter().enumerate() {
         let file = w.mesh(scene, range, k)?;
-        let material = w.material(&scene.materials[mat as usize])?;
-        let _ = write!(t, "\n[[mesh]]\nfile = \"{file}\"\nmaterial = {material}\n");
+        let (material, alpha) = w.material(&scene.materials[mat as usize])?;
+        let _ = write!(
+            t,
+            "\n[[mesh]]\nfile = \"{file}\"\nmaterial = {material}\n{alpha}"
+        );
         if scene.world_origin != crate::math::DVec3::ZERO {
             // the OBJ holds render-space positions; this puts them back
             let _ = writeln!(
@@ -441,7 +455,8 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
     }
     instances(&mut w, scene, &mut t)?;
     for (s, &m) in scene.spheres.iter().zip(&scene.sphere_material) {
-        let material = w.material(&scene.materials[m as usize])?;
+        // spheres have no masks (the loaders refuse them)
+        let (material, _) = w.material(&scene.materials[m as usize])?;
         let _ = write!(
             t,
             "\n[[sphere]]\ncenter = {}\nradius = {}\nmaterial = {material}\n",
@@ -514,11 +529,11 @@ fn instances(w: &mut Writer, scene: &Scene, t: &mut String) -> Result<()> {
         let mut runs_of = Vec::new();
         for (k, (range, mat)) in runs(&sh.tri_material).into_iter().enumerate() {
             let file = w.prototype(scene, p, range, k)?;
-            let material = w.material(&scene.materials[mat as usize])?;
+            let (material, alpha) = w.material(&scene.materials[mat as usize])?;
             let name = format!("prototype{p}-{k}");
             let _ = write!(
                 t,
-                "\n# prototype {p}: `{}`\n[[mesh]]\nfile = \"{file}\"\nname = \"{name}\"\ninstance_only = true\nmaterial = {material}\n",
+                "\n# prototype {p}: `{}`\n[[mesh]]\nfile = \"{file}\"\nname = \"{name}\"\ninstance_only = true\nmaterial = {material}\n{alpha}",
                 crate::error::one_line(&sh.name)
             );
             runs_of.push(name);
@@ -542,7 +557,8 @@ fn instances(w: &mut Writer, scene: &Scene, t: &mut String) -> Result<()> {
             .join(", ");
         let material = match inst.material[k] {
             NO_OVERRIDE => None,
-            m => Some(w.material(&scene.materials[m as usize])?),
+            // the override's mask is the prototype's (it keeps it on load)
+            m => Some(w.material(&scene.materials[m as usize])?.0),
         };
         for name in &names[placement.prototype as usize] {
             let _ = write!(t, "\n[[instance]]\nof = \"{name}\"\nmatrix = [{matrix}]\n");

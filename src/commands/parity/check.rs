@@ -29,7 +29,7 @@
 //! Distances disagree when `|t_a - t_b| > 1e-5 * max(1, t)` (hard case 11).
 
 use crate::accel::triangle::distance_error_bound;
-use crate::accel::{self, AccelOptions, Accelerator, Backend, Hit};
+use crate::accel::{self, AccelOptions, Accelerator, Backend, Hit, Masked};
 use crate::commands::raysets::{self, RayKind};
 use crate::error::{Error, Result};
 use crate::integrator::PathTracer;
@@ -457,19 +457,28 @@ pub fn run(
     }
     let reference_backend = settings.backends[0];
     let reference = accel::build(reference_backend, scene.soup(), settings.options)?;
+    // every query sees the scene's alpha masks, as a render's do
+    let reference = Masked {
+        accel: reference.as_ref(),
+        alpha: scene.alpha_test(),
+    };
     let sets: Vec<_> = settings
         .kinds
         .iter()
-        .map(|&k| raysets::generate(scene, reference.as_ref(), k, settings.rays, 7))
+        .map(|&k| raysets::generate(scene, &reference, k, settings.rays, 7))
         .collect();
     let mut comparisons = Vec::new();
     let mut unexplained = 0;
     for &backend in &settings.backends[1..] {
         progress(&format!("{reference_backend} vs {backend}"));
         let other = accel::build(backend, scene.soup(), settings.options)?;
+        let other = Masked {
+            accel: other.as_ref(),
+            alpha: scene.alpha_test(),
+        };
         let kinds: Vec<KindParity> = sets
             .iter()
-            .map(|s| compare_kind(scene, reference.as_ref(), other.as_ref(), s.kind, &s.rays))
+            .map(|s| compare_kind(scene, &reference, &other, s.kind, &s.rays))
             .collect();
         unexplained += kinds
             .iter()
@@ -479,8 +488,8 @@ pub fn run(
             progress(&format!("{reference_backend} vs {backend}: image"));
             compare_images(
                 scene,
-                reference.as_ref(),
-                other.as_ref(),
+                reference.accel,
+                other.accel,
                 settings.image_resolution,
                 settings.image_spp,
                 settings.integrator,
@@ -587,6 +596,12 @@ mod tests {
         }
         fn occluded(&self, ray: &Ray) -> bool {
             self.intersect(ray).is_some()
+        }
+        fn intersect_masked(&self, ray: &Ray, _: &dyn crate::accel::AlphaTest) -> Option<Hit> {
+            self.intersect(ray)
+        }
+        fn occluded_masked(&self, ray: &Ray, _: &dyn crate::accel::AlphaTest) -> bool {
+            self.occluded(ray)
         }
         fn memory_bytes(&self) -> usize {
             0

@@ -224,6 +224,41 @@ impl<'a, 'i> Loader<'a, 'i> {
                 m.name = name;
                 return Ok(m);
             }
+            "mask" => {
+                // Mitsuba 3's `mask`: opacity (a float or a texture, 0.5 by
+                // default) over one nested BSDF
+                let inner = p
+                    .unnamed_of("bsdf")
+                    .or_else(|| p.any_of("bsdf"))
+                    .ok_or_else(|| self.fail(node, "mask needs one nested <bsdf>"))?;
+                let mask = match p.object("opacity") {
+                    Some(t) if t.tag_name().name() == "texture" => {
+                        crate::scene::AlphaMask::Texture(self.texture(t)?)
+                    }
+                    Some(other) => {
+                        return Err(
+                            self.fail(other, "mask: opacity must be a float or a <texture>")
+                        );
+                    }
+                    None => {
+                        let a = p.number("opacity").map_or(0.5, |v| v.0);
+                        if !(0.0..=1.0).contains(&a) {
+                            return Err(
+                                self.fail(node, format!("mask: opacity {a} out of range ([0, 1])"))
+                            );
+                        }
+                        crate::scene::AlphaMask::Constant(a as f32)
+                    }
+                };
+                self.finish(p);
+                let mut m = self.bsdf(inner)?;
+                if m.alpha_mask.is_some() {
+                    return Err(self.fail(node, "a mask inside another mask is not in the subset"));
+                }
+                m.alpha_mask = Some(mask);
+                m.name = name;
+                return Ok(m);
+            }
             "normalmap" | "bumpmap" => {
                 let inner = p
                     .unnamed_of("bsdf")
@@ -359,7 +394,7 @@ impl<'a, 'i> Loader<'a, 'i> {
                 return Err(self.fail(
                     node,
                     format!(
-                        "bsdf `{}` is not in the subset (expected diffuse, conductor, roughconductor, dielectric, plastic, roughplastic or twosided)",
+                        "bsdf `{}` is not in the subset (expected diffuse, conductor, roughconductor, dielectric, plastic, roughplastic, twosided, mask, normalmap or bumpmap)",
                         one_line(other)
                     ),
                 ));
@@ -375,6 +410,7 @@ impl<'a, 'i> Loader<'a, 'i> {
             emission: Vec3::ZERO,
             two_sided: false,
             maps,
+            alpha_mask: None,
         })
     }
 
