@@ -51,13 +51,14 @@ const SYSTEMATIC: f64 = 2e-3;
 /// 1 % bias the test must see, the other half left to the noise.
 const MAX_RELATIVE_BAND: f64 = 0.005;
 /// The scenes and their block counts ((w / 8) x (h / 8)).
-const SCENES: [(&str, usize); 6] = [
+const SCENES: [(&str, usize); 7] = [
     ("cbox", 30),
     ("lights", 35),
     ("envmap", 30),
     ("instances", 30),
     ("spot", 64),
     ("maps", 30),
+    ("production", 30),
 ];
 
 fn data(name: &str) -> PathBuf {
@@ -281,6 +282,26 @@ fn errors_name_the_file_line_and_element() {
             "<shape type=\"rectangle\">\n<float name=\"x\" value=\"1e400\"/>\n</shape>",
             ":3:",
             "not finite",
+        ),
+        (
+            "<shape type=\"sphere\">\n<bsdf type=\"mask\">\n<bsdf type=\"diffuse\"/>\n</bsdf>\n</shape>",
+            ":2:",
+            "sphere cannot be cut out",
+        ),
+        (
+            "<shape type=\"rectangle\">\n<bsdf type=\"mask\">\n<float name=\"opacity\" value=\"1.5\"/>\n<bsdf type=\"diffuse\"/>\n</bsdf>\n</shape>",
+            ":3:",
+            "out of range",
+        ),
+        (
+            "<shape type=\"rectangle\">\n<bsdf type=\"mask\">\n<bsdf type=\"mask\">\n<bsdf type=\"diffuse\"/>\n</bsdf>\n</bsdf>\n</shape>",
+            ":3:",
+            "inside another mask",
+        ),
+        (
+            "<shape type=\"rectangle\">\n<bsdf type=\"mask\">\n<bsdf type=\"diffuse\"/>\n</bsdf>\n<emitter type=\"area\"/>\n</shape>",
+            ":2:",
+            "cannot be cut out",
         ),
         ("<shape type=\"cube\">", ":", "XML"),
     ];

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Write the assets of the Mitsuba XML test scenes (icosphere.obj, floor.ply,
-sky.exr, checker.png, and maps.xml's normals.png, roughness.png and
-bumps.png) and render each scene with Mitsuba 3 itself into
+sky.exr, checker.png, maps.xml's normals.png, roughness.png and bumps.png,
+and production.xml's cutout.png) and render each scene with Mitsuba 3
+itself into
 <scene>.ref.exr (the mean of PASSES independent renders) and
 <scene>.var.exr (the variance of that mean, per pixel and channel, from the
 spread of the passes). tests/mitsuba.rs compares embertrace's renders of the
@@ -27,7 +28,7 @@ import mitsuba as mi
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-SCENES = ["cbox", "lights", "envmap", "instances", "spot", "maps"]
+SCENES = ["cbox", "lights", "envmap", "instances", "spot", "maps", "production"]
 PASSES = 8
 SPP = int(sys.argv[1]) if len(sys.argv) > 1 else 4096
 
@@ -143,6 +144,24 @@ def maps_pngs():
     png("bumps.png", b)
 
 
+def cutout_png():
+    """production.xml's mask opacity, read raw (16 x 16): solid (1) with two
+    round holes (0) and a ring of opacity 0.5 around the second."""
+    a = np.zeros((16, 16, 3))
+    for y in range(16):
+        for x in range(16):
+            u, v = (x + 0.5) / 16, (y + 0.5) / 16
+            d1 = math.hypot(u - 0.3, v - 0.35)
+            d2 = math.hypot(u - 0.68, v - 0.62)
+            if d1 < 0.16 or d2 < 0.12:
+                a[y, x] = 0
+            elif d2 < 0.24:
+                a[y, x] = 128
+            else:
+                a[y, x] = 255
+    png("cutout.png", a)
+
+
 def render(name):
     scene = mi.load_file(os.path.join(HERE, name + ".xml"))
     passes = []
@@ -168,6 +187,7 @@ if __name__ == "__main__":
         sky_exr()
         checker_png()
     maps_pngs()
+    cutout_png()
     info = {"generator": "tests/data/mitsuba/make_references.py",
             "mitsuba_version": mi.__version__, "variant": mi.variant(),
             "passes": PASSES, "spp_per_pass": SPP, "mean": {}}
