@@ -789,6 +789,15 @@ mod tests {
             &instanced,
             material("sphere", grey(), None, Maps::default()),
         );
+        for (k, p) in both.instances.placements.iter().enumerate() {
+            for t in 0..12 {
+                let prim = p.first_prim + t;
+                assert_eq!(both.instanced(prim), Some((k, t)));
+                assert!(both.sphere(prim).is_none());
+                assert_eq!(both.material(prim).name, "boxes");
+            }
+        }
+        assert_eq!(both.primitive_count(), base.triangle_count() + 1 + 48);
         for backend in Backend::available() {
             let a = seen(&placed, backend);
             let b = seen(&instanced, backend);
