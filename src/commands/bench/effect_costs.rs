@@ -4,27 +4,35 @@
 //! kernel and under `--plan general`, then with one effect added at a time: a
 //! diffuse sphere (the cost of analytic spheres alone), a mirror sphere, a
 //! glass sphere, a rough conductor sphere, a textured sphere, an environment
-//! map, a thin lens. Every variant renders in the same process, one after the
+//! map, a thin lens; then the production-scene effects: a few small boxes
+//! placed as instances (beside the same boxes as plain triangles), enough
+//! small emissive triangles that `--light-sampler auto` picks the light BVH
+//! (beside the same lights under `--light-sampler power`), a spot light, and
+//! a diffuse sphere with a normal map or a bump map (beside the plain
+//! diffuse sphere). Every variant renders in the same process, one after the
 //! other in each repetition (so drifts in machine speed hit all rows alike),
 //! and each row reports the median over the repetitions of nanoseconds per
 //! sample (render seconds over pixels times spp), Mrays/s, and the ratio to
-//! the first row.
+//! the first row, with the effects its plan turns on beyond the first row's.
 
 use super::throughput::median;
-use crate::accel::{self, AccelOptions, Backend};
+use crate::accel::{self, AccelOptions, Backend, Placement, Prototype};
 use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Mirror};
 use crate::camera::ThinLens;
 use crate::error::Result;
 use crate::integrator::PathTracer;
-use crate::light::EnvironmentMap;
-use crate::math::Vec3;
+use crate::light::{EnvironmentMap, SpotLight};
+use crate::math::{DVec3, Vec2, Vec3, needle_factor, triangle_normal};
 use crate::plan::{Kernel, Plan};
 use crate::render::{RenderSettings, render};
 use crate::sampler::SamplerKind;
-use crate::scene::{Material, Scene};
-use crate::settings::IntegratorSettings;
+use crate::scene::{
+    BumpMap, Maps, Material, MeshRange, NO_OVERRIDE, PrototypeShading, Scene, SceneInstances,
+};
+use crate::settings::{IntegratorSettings, LIGHT_BVH_FROM, LightSampler};
 use crate::shape::Sphere;
 use crate::texture::ImageTexture;
+use glam::{DAffine3, DQuat};
 use serde::Serialize;
 use std::fmt::Write;
 use std::sync::Arc;
@@ -80,36 +88,277 @@ pub struct EffectCostReport {
     pub rows: Vec<EffectCostRow>,
 }
 
-/// A variant of the base scene: its name, the scene and whether to force the
-/// general kernel.
+/// A variant of the base scene: its name, the scene, whether to force the
+/// general kernel, and the light sampler it forces (otherwise the one the
+/// command line chose).
 struct Variant {
-    name: &'static str,
+    name: String,
     scene: Scene,
     general: bool,
+    light_sampler: Option<LightSampler>,
+}
+
+impl Variant {
+    /// The integrator settings this variant renders with.
+    fn integrator(&self, integrator: IntegratorSettings) -> IntegratorSettings {
+        IntegratorSettings {
+            light_sampler: self.light_sampler.unwrap_or(integrator.light_sampler),
+            ..integrator
+        }
+    }
+}
+
+/// The scene's size (its bounds' shortest side) and the centre of its
+/// bounds' floor (lowest `y`).
+fn size_and_floor(base: &Scene) -> (f32, Vec3) {
+    let b = base.bounds();
+    let size = (b.max - b.min).min_element().max(1e-3);
+    let floor = Vec3::new(
+        0.5 * (b.min.x + b.max.x),
+        b.min.y,
+        0.5 * (b.min.z + b.max.z),
+    );
+    (size, floor)
+}
+
+/// Move every placement's primitive ids up by `by`: instanced triangles are
+/// numbered after the placed triangles and spheres, so adding either to a
+/// scene with instances must renumber them.
+fn shift_instances(s: &mut Scene, by: u32) {
+    for p in &mut s.instances.placements {
+        p.first_prim += by;
+    }
 }
 
 /// The base scene with a sphere of `material` on its floor.
-fn with_sphere(base: &Scene, name: &str, bsdf: Bsdf, texture: Option<Arc<ImageTexture>>) -> Scene {
+fn with_sphere(base: &Scene, material: Material) -> Scene {
     let mut s = base.clone();
-    let b = base.bounds();
-    let size = (b.max - b.min).min_element().max(1e-3);
+    let (size, floor) = size_and_floor(base);
     let r = 0.17 * size;
-    let centre = Vec3::new(
-        0.5 * (b.min.x + b.max.x) + 0.2 * size,
-        b.min.y + r,
-        0.5 * (b.min.z + b.max.z) + 0.15 * size,
-    );
+    let centre = floor + Vec3::new(0.2 * size, r, 0.15 * size);
     s.sphere_material.push(s.materials.len() as u32);
-    s.materials.push(Material {
-        name: name.to_string(),
-        bsdf,
-        texture,
-        ..Material::default()
-    });
+    s.materials.push(material);
     s.spheres.push(Sphere {
         center: centre,
         radius: r,
     });
+    shift_instances(&mut s, 1);
+    s
+}
+
+/// A material named `name` with `bsdf`, `texture` and `maps`.
+fn material(name: &str, bsdf: Bsdf, texture: Option<Arc<ImageTexture>>, maps: Maps) -> Material {
+    Material {
+        name: name.to_string(),
+        bsdf,
+        texture,
+        maps,
+        ..Material::default()
+    }
+}
+
+/// The grey Lambertian of the added spheres and boxes.
+fn grey() -> Bsdf {
+    Bsdf::Diffuse(Diffuse {
+        albedo: Vec3::splat(0.7),
+    })
+}
+
+/// The base scene with `triangles` (render space, counter-clockwise seen
+/// from the front) added as one mesh named `name` of `material`. Per-corner
+/// arrays the scene keeps get zeros (no texture coordinates, flat shading,
+/// no tangent frame).
+fn with_triangles(base: &Scene, name: &str, material: Material, triangles: &[[Vec3; 3]]) -> Scene {
+    let mut s = base.clone();
+    let m = s.materials.len() as u32;
+    s.materials.push(material);
+    let start = s.indices.len() as u32;
+    for &p in triangles {
+        let Some(n) = triangle_normal(p[0], p[1], p[2]) else {
+            continue;
+        };
+        let v = s.positions.len() as u32;
+        s.positions.extend(p);
+        s.indices.push([v, v + 1, v + 2]);
+        s.normals.push(n);
+        s.needle.push(needle_factor(p));
+        s.tri_material.push(m);
+        if !s.tri_uv.is_empty() {
+            s.tri_uv.push([Vec2::ZERO; 3]);
+        }
+        if !s.tri_shading_normals.is_empty() {
+            s.tri_shading_normals.push([Vec3::ZERO; 3]);
+        }
+        if !s.tri_dpduv.is_empty() {
+            s.tri_dpduv.push([Vec3::ZERO; 2]);
+        }
+    }
+    let end = s.indices.len() as u32;
+    shift_instances(&mut s, end - start);
+    s.meshes.push(MeshRange {
+        name: name.to_string(),
+        start,
+        end,
+    });
+    s
+}
+
+/// A unit cube centred on the origin: 8 corners, 12 triangles wound
+/// counter-clockwise seen from outside.
+fn cube() -> Prototype {
+    let positions: Vec<Vec3> = (0..8u32)
+        .map(|i| Vec3::new((i & 1) as f32, (i >> 1 & 1) as f32, (i >> 2 & 1) as f32) - 0.5)
+        .collect();
+    let mut indices = Vec::new();
+    for axis in 0..3usize {
+        let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+        for side in 0..2u32 {
+            let corner = |i: u32, j: u32| side << axis | i << a | j << b;
+            let q = [corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1)];
+            let [p0, p1, p2] = [q[0], q[1], q[2]].map(|i| positions[i as usize]);
+            let outward = if side == 1 { 1.0 } else { -1.0 };
+            let q = if (p1 - p0).cross(p2 - p0)[axis] * outward > 0.0 {
+                q
+            } else {
+                [q[0], q[3], q[2], q[1]]
+            };
+            indices.push([q[0], q[1], q[2]]);
+            indices.push([q[0], q[2], q[3]]);
+        }
+    }
+    Prototype { positions, indices }
+}
+
+/// Where the boxes of the instancing rows stand, in render space: four
+/// cubes of edge 0.1 of the scene's size on its floor, two by two in its
+/// front left quarter (clear of the Cornell box's two boxes), each turned
+/// about the vertical.
+fn box_placements(base: &Scene) -> Vec<DAffine3> {
+    let (size, floor) = size_and_floor(base);
+    let edge = 0.1 * size;
+    (0..4)
+        .map(|k| {
+            let at = floor
+                + Vec3::new(
+                    (-0.4 + 0.2 * (k % 2) as f32) * size,
+                    0.5 * edge,
+                    (0.15 + 0.2 * (k / 2) as f32) * size,
+                );
+            DAffine3::from_scale_rotation_translation(
+                DVec3::splat(edge as f64),
+                DQuat::from_rotation_y(0.4 * k as f64),
+                at.as_dvec3(),
+            )
+        })
+        .collect()
+}
+
+/// The base scene with [`cube`] placed by each of [`box_placements`] as
+/// instances of one prototype.
+fn with_instanced_boxes(base: &Scene) -> Scene {
+    let mut s = base.clone();
+    let proto = cube();
+    let m = s.materials.len() as u32;
+    s.materials
+        .push(material("boxes", grey(), None, Maps::default()));
+    let corners: Vec<[Vec3; 3]> = (0..proto.indices.len() as u32)
+        .map(|t| proto.triangle(t))
+        .collect();
+    let inst = &mut s.instances;
+    let p = inst.prototypes.len() as u32;
+    let mut first = (s.indices.len() + s.spheres.len()) as u64 + inst.triangle_count();
+    inst.shading.push(PrototypeShading {
+        name: "box".to_string(),
+        normals: corners
+            .iter()
+            .map(|c| triangle_normal(c[0], c[1], c[2]).expect("a cube's faces have area"))
+            .collect(),
+        needle: corners.iter().map(|&c| needle_factor(c)).collect(),
+        tri_material: vec![m; corners.len()],
+        ..PrototypeShading::default()
+    });
+    inst.prototypes.push(proto);
+    for m in box_placements(base) {
+        let placement = Placement::new(p, m, first as u32).expect("an invertible placement");
+        first += corners.len() as u64;
+        push_placement(inst, placement, m, s.world_origin);
+    }
+    s
+}
+
+/// Add `placement` (render-space map `m`) to `inst`, with no material
+/// override, in a scene whose render space starts at `world_origin`.
+fn push_placement(
+    inst: &mut SceneInstances,
+    placement: Placement,
+    m: DAffine3,
+    world_origin: DVec3,
+) {
+    inst.placements.push(placement);
+    inst.material.push(NO_OVERRIDE);
+    inst.normal_matrix
+        .push(m.matrix3.inverse().transpose().as_mat3());
+    inst.world
+        .push(DAffine3::from_translation(world_origin) * m);
+}
+
+/// The base scene with the boxes of [`with_instanced_boxes`] as plain
+/// triangles: the same geometry without the two-level queries.
+fn with_placed_boxes(base: &Scene) -> Scene {
+    let proto = cube();
+    let mut triangles = Vec::new();
+    for m in box_placements(base) {
+        for t in 0..proto.indices.len() as u32 {
+            triangles.push(
+                proto
+                    .triangle(t)
+                    .map(|c| m.transform_point3(c.as_dvec3()).as_vec3()),
+            );
+        }
+    }
+    with_triangles(
+        base,
+        "boxes",
+        material("boxes", grey(), None, Maps::default()),
+        &triangles,
+    )
+}
+
+/// The base scene with [`LIGHT_BVH_FROM`] small emissive triangles (a square
+/// grid of them, facing down, just under the top of the scene's bounds),
+/// enough lights for `--light-sampler auto` to pick the light BVH whatever
+/// the scene had.
+fn with_many_lights(base: &Scene) -> Scene {
+    let (size, floor) = size_and_floor(base);
+    let top = base.bounds().max.y - 0.01 * size;
+    let n = (LIGHT_BVH_FROM as f32).sqrt().ceil() as usize;
+    let d = 0.02 * size;
+    let mut triangles = Vec::new();
+    for k in 0..LIGHT_BVH_FROM {
+        let (i, j) = ((k % n) as f32, (k / n) as f32);
+        let step = 0.8 * size / n as f32;
+        let p = Vec3::new(
+            floor.x + (i - 0.5 * (n - 1) as f32) * step,
+            top,
+            floor.z + (j - 0.5 * (n - 1) as f32) * step,
+        );
+        // (d, 0, 0) x (0, 0, d) points down
+        triangles.push([p, p + Vec3::new(d, 0.0, 0.0), p + Vec3::new(0.0, 0.0, d)]);
+    }
+    let mut light = material("small lights", grey(), None, Maps::default());
+    light.emission = Vec3::splat(10.0);
+    with_triangles(base, "small lights", light, &triangles)
+}
+
+/// The base scene with a spot light under the top of its bounds, pointing
+/// down (a 30 degree cone).
+fn with_spot_light(base: &Scene) -> Scene {
+    let mut s = base.clone();
+    let (size, floor) = size_and_floor(base);
+    let at = Vec3::new(floor.x, base.bounds().max.y - 0.05 * size, floor.z);
+    s.spot_lights.push(
+        SpotLight::new(at, Vec3::NEG_Y, Vec3::splat(3.0), 30.0, None).expect("a valid spot light"),
+    );
     s
 }
 
@@ -123,6 +372,36 @@ fn checker() -> Arc<ImageTexture> {
         }
     }
     Arc::new(ImageTexture::from_linear_rgb(64, 64, rgb).expect("a valid texture"))
+}
+
+/// A 64 x 64 normal map (raw, Mitsuba's encoding `(n + 1) / 2`) of eight
+/// by eight bumps: normals tilted up to about 17 degrees.
+fn bumps_normal_map() -> Arc<ImageTexture> {
+    let mut rgb = Vec::with_capacity(64 * 64 * 3);
+    for y in 0..64 {
+        for x in 0..64 {
+            let (u, v) = (x as f32 / 64.0, y as f32 / 64.0);
+            let a = std::f32::consts::TAU * 8.0;
+            let n = Vec3::new(0.3 * (a * u).cos(), 0.3 * (a * v).cos(), 1.0).normalize();
+            let c = 0.5 * (n + Vec3::ONE);
+            rgb.extend([c.x, c.y, c.z]);
+        }
+    }
+    Arc::new(ImageTexture::from_linear_rgb(64, 64, rgb).expect("a valid normal map"))
+}
+
+/// A 64 x 64 height map of eight by eight bumps, heights in [0, 1].
+fn bumps_height_map() -> Arc<ImageTexture> {
+    let mut rgb = Vec::with_capacity(64 * 64 * 3);
+    for y in 0..64 {
+        for x in 0..64 {
+            let (u, v) = (x as f32 / 64.0, y as f32 / 64.0);
+            let a = std::f32::consts::TAU * 8.0;
+            let h = 0.5 + 0.25 * ((a * u).sin() + (a * v).sin());
+            rgb.extend([h, h, h]);
+        }
+    }
+    Arc::new(ImageTexture::from_linear_rgb(64, 64, rgb).expect("a valid height map"))
 }
 
 /// A 64 x 32 sky: a blue gradient and a bright spot.
@@ -144,10 +423,11 @@ fn sky() -> EnvironmentMap {
 }
 
 fn variants(base: &Scene) -> Vec<Variant> {
-    let v = |name, scene, general| Variant {
-        name,
+    let v = |name: &str, scene, general| Variant {
+        name: name.to_string(),
         scene,
         general,
+        light_sampler: None,
     };
     let mut lens = base.clone();
     lens.lens = ThinLens {
@@ -161,48 +441,111 @@ fn variants(base: &Scene) -> Vec<Variant> {
         k: Vec3::new(3.15, 2.35, 1.76),
         microfacet: Microfacet::new(Distribution::Ggx, 0.2),
     };
+    let no_maps = Maps::default;
+    let lights = with_many_lights(base);
+    let n_lights = LIGHT_BVH_FROM;
     vec![
         v("base scene", base.clone(), false),
         v("base scene, --plan general", base.clone(), true),
         v(
             "+ diffuse sphere",
-            with_sphere(
-                base,
-                "sphere",
-                Bsdf::Diffuse(Diffuse {
-                    albedo: Vec3::splat(0.7),
-                }),
-                None,
-            ),
+            with_sphere(base, material("sphere", grey(), None, no_maps())),
             false,
         ),
         v(
             "+ mirror sphere",
-            with_sphere(base, "mirror", Bsdf::Mirror(Mirror::default()), None),
+            with_sphere(
+                base,
+                material("mirror", Bsdf::Mirror(Mirror::default()), None, no_maps()),
+            ),
             false,
         ),
         v(
             "+ glass sphere",
-            with_sphere(base, "glass", Bsdf::Glass(Glass::default()), None),
+            with_sphere(
+                base,
+                material("glass", Bsdf::Glass(Glass::default()), None, no_maps()),
+            ),
             false,
         ),
         v(
             "+ rough conductor sphere",
-            with_sphere(base, "gold", Bsdf::Conductor(gold), None),
+            with_sphere(
+                base,
+                material("gold", Bsdf::Conductor(gold), None, no_maps()),
+            ),
             false,
         ),
         v(
             "+ textured diffuse sphere",
             with_sphere(
                 base,
-                "checker",
-                Bsdf::Diffuse(Diffuse { albedo: Vec3::ONE }),
-                Some(checker()),
+                material(
+                    "checker",
+                    Bsdf::Diffuse(Diffuse { albedo: Vec3::ONE }),
+                    Some(checker()),
+                    no_maps(),
+                ),
             ),
             false,
         ),
         v("+ environment map", env, false),
         v("+ thin lens", lens, false),
+        v(
+            "+ 4 boxes as plain triangles",
+            with_placed_boxes(base),
+            false,
+        ),
+        v(
+            "+ the 4 boxes as instances",
+            with_instanced_boxes(base),
+            false,
+        ),
+        Variant {
+            light_sampler: Some(LightSampler::Power),
+            ..v(
+                &format!("+ {n_lights} small lights, --light-sampler power"),
+                lights.clone(),
+                false,
+            )
+        },
+        v(&format!("+ {n_lights} small lights"), lights, false),
+        v("+ spot light", with_spot_light(base), false),
+        v(
+            "+ normal-mapped diffuse sphere",
+            with_sphere(
+                base,
+                material(
+                    "normal-mapped",
+                    grey(),
+                    None,
+                    Maps {
+                        normal: Some(bumps_normal_map()),
+                        ..no_maps()
+                    },
+                ),
+            ),
+            false,
+        ),
+        v(
+            "+ bump-mapped diffuse sphere",
+            with_sphere(
+                base,
+                material(
+                    "bump-mapped",
+                    grey(),
+                    None,
+                    Maps {
+                        bump: Some(BumpMap {
+                            texture: bumps_height_map(),
+                            scale: 0.02,
+                        }),
+                        ..no_maps()
+                    },
+                ),
+            ),
+            false,
+        ),
     ]
 }
 
@@ -227,6 +570,7 @@ pub fn run(
     let mut times: Vec<Vec<(f64, f64)>> = vec![Vec::new(); variants.len()];
     for rep in 0..settings.reps.max(1) {
         for (k, v) in variants.iter().enumerate() {
+            let integrator = v.integrator(integrator);
             let kernel = if v.general {
                 Kernel::GENERAL
             } else {
@@ -260,14 +604,14 @@ pub fn run(
     for (k, v) in variants.iter().enumerate() {
         let ns = median(times[k].iter().map(|t| t.0).collect());
         let mrays = median(times[k].iter().map(|t| t.1).collect());
-        let plan = Plan::new(&v.scene, &integrator);
+        let plan = Plan::new(&v.scene, &v.integrator(integrator));
         let kernel = if v.general {
             Kernel::GENERAL
         } else {
             plan.kernel
         };
         rows.push(EffectCostRow {
-            variant: v.name.to_string(),
+            variant: v.name.clone(),
             kernel: kernel.describe(),
             effects: plan.on().iter().map(|s| s.to_string()).collect(),
             ns_per_sample: ns,
@@ -296,14 +640,188 @@ impl EffectCostReport {
             "effect costs: {} ({}), {}x{}, {} spp, median of {} repetitions\n\n",
             self.scene, self.backend, self.resolution[0], self.resolution[1], self.spp, self.reps
         );
-        s += "| variant | kernel | ns/sample | Mrays/s | relative |\n|---|---|---:|---:|---:|\n";
+        s += "| variant | kernel | effects on | ns/sample | Mrays/s | relative |\n|---|---|---|---:|---:|---:|\n";
         for r in &self.rows {
             let _ = writeln!(
                 s,
-                "| {} | {} | {:.0} | {:.2} | {:.2} |",
-                r.variant, r.kernel, r.ns_per_sample, r.mrays_per_second, r.relative
+                "| {} | {} | {} | {:.0} | {:.2} | {:.2} |",
+                r.variant,
+                r.kernel,
+                self.effects_column(r),
+                r.ns_per_sample,
+                r.mrays_per_second,
+                r.relative
             );
         }
         s
+    }
+
+    /// The effects `row` turns on: the first row's all, every other row's
+    /// as the difference from the first (`+name` on, `-name` off), or `as
+    /// the base` when there is none.
+    fn effects_column(&self, row: &EffectCostRow) -> String {
+        let first = &self.rows[0];
+        if std::ptr::eq(row, first) {
+            return first.effects.join(", ");
+        }
+        let mut diff: Vec<String> = row
+            .effects
+            .iter()
+            .filter(|e| !first.effects.contains(e))
+            .map(|e| format!("+{e}"))
+            .collect();
+        diff.extend(
+            first
+                .effects
+                .iter()
+                .filter(|e| !row.effects.contains(e))
+                .map(|e| format!("-{e}")),
+        );
+        if diff.is_empty() {
+            "as the base".to_string()
+        } else {
+            diff.join(", ")
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::settings::{Flags, resolve};
+    use std::path::Path;
+
+    fn cornell() -> (Scene, IntegratorSettings) {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml");
+        let scene = Scene::load(&path).expect("the bundled Cornell box loads");
+        let integrator = resolve(&scene.render, scene.resolution, &Flags::default())
+            .expect("its settings resolve")
+            .integrator;
+        (scene, integrator)
+    }
+
+    /// The effects a variant's plan turns on.
+    fn effects(v: &Variant, integrator: IntegratorSettings) -> Vec<&'static str> {
+        Plan::new(&v.scene, &v.integrator(integrator)).on()
+    }
+
+    #[test]
+    fn each_row_turns_on_the_effects_it_adds() {
+        let (base, integrator) = cornell();
+        let variants = variants(&base);
+        let first = effects(&variants[0], integrator);
+        assert_eq!(first, ["diffuse", "area_light", "indirect"]);
+        let expected: &[(&str, &[&str])] = &[
+            ("base scene", &[]),
+            ("base scene, --plan general", &[]),
+            ("+ diffuse sphere", &["sphere"]),
+            ("+ mirror sphere", &["mirror", "sphere"]),
+            ("+ glass sphere", &["glass", "sphere"]),
+            ("+ rough conductor sphere", &["conductor", "sphere"]),
+            ("+ textured diffuse sphere", &["texture", "sphere"]),
+            ("+ environment map", &["environment_map"]),
+            ("+ thin lens", &["thin_lens"]),
+            ("+ 4 boxes as plain triangles", &[]),
+            ("+ the 4 boxes as instances", &["instancing"]),
+            ("+ 64 small lights, --light-sampler power", &[]),
+            ("+ 64 small lights", &["many_lights"]),
+            ("+ spot light", &["spot_light"]),
+            ("+ normal-mapped diffuse sphere", &["sphere", "normal_map"]),
+            ("+ bump-mapped diffuse sphere", &["sphere", "bump_map"]),
+        ];
+        let names: Vec<&str> = variants.iter().map(|v| v.name.as_str()).collect();
+        let want: Vec<&str> = expected.iter().map(|(n, _)| *n).collect();
+        assert_eq!(names, want);
+        for (v, (_, added)) in variants.iter().zip(expected) {
+            let on = effects(v, integrator);
+            assert!(
+                first.iter().all(|e| on.contains(e)),
+                "{}: {on:?} lacks some of {first:?}",
+                v.name
+            );
+            let new: Vec<&str> = on.into_iter().filter(|e| !first.contains(e)).collect();
+            assert_eq!(new, *added, "{}", v.name);
+        }
+        // the many-lights rows differ by the sampler alone, the maps rows
+        // from the diffuse sphere's by the map alone
+        let count = |v: &Variant| crate::plan::finite_light_count(&v.scene);
+        assert_eq!(count(&variants[11]), count(&variants[12]));
+        assert!(count(&variants[12]) >= LIGHT_BVH_FROM);
+        assert!(count(&variants[0]) < LIGHT_BVH_FROM);
+        let kernel = |v: &Variant| Plan::new(&v.scene, &v.integrator(integrator)).kernel;
+        assert_eq!(kernel(&variants[14]), kernel(&variants[2]));
+        assert_eq!(kernel(&variants[15]), kernel(&variants[2]));
+        // --light-sampler power on the command line leaves the light BVH off
+        let power = IntegratorSettings {
+            light_sampler: LightSampler::Power,
+            ..integrator
+        };
+        assert!(!effects(&variants[12], power).contains(&"many_lights"));
+    }
+
+    /// Camera rays through a 24 x 24 grid: the material name each hits.
+    fn seen(scene: &Scene, backend: Backend) -> Vec<Option<(String, f32)>> {
+        let accel = accel::build(backend, scene.soup(), AccelOptions::default()).unwrap();
+        let camera = scene.make_camera(24, 24);
+        let mut out = Vec::new();
+        for y in 0..24 {
+            for x in 0..24 {
+                let ray = camera.generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+                out.push(
+                    accel
+                        .intersect(&ray)
+                        .map(|h| (scene.material(h.prim).name.clone(), h.t)),
+                );
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn instanced_boxes_are_the_placed_boxes() {
+        let (base, _) = cornell();
+        let placed = with_placed_boxes(&base);
+        let instanced = with_instanced_boxes(&base);
+        assert_eq!(instanced.instances.placements.len(), 4);
+        assert_eq!(placed.triangle_count(), base.triangle_count() + 48);
+        // a sphere added after the instances renumbers them
+        let both = with_sphere(
+            &instanced,
+            material("sphere", grey(), None, Maps::default()),
+        );
+        for (k, p) in both.instances.placements.iter().enumerate() {
+            for t in 0..12 {
+                let prim = p.first_prim + t;
+                assert_eq!(both.instanced(prim), Some((k, t)));
+                assert!(both.sphere(prim).is_none());
+                assert_eq!(both.material(prim).name, "boxes");
+            }
+        }
+        assert_eq!(both.primitive_count(), base.triangle_count() + 1 + 48);
+        for backend in Backend::available() {
+            let a = seen(&placed, backend);
+            let b = seen(&instanced, backend);
+            let c = seen(&both, backend);
+            let boxes = a
+                .iter()
+                .filter(|h| h.as_ref().is_some_and(|h| h.0 == "boxes"))
+                .count();
+            assert!(boxes > 10, "{backend:?}: {boxes} rays see the boxes");
+            for (k, (a, b)) in a.iter().zip(&b).enumerate() {
+                // (a ray along the edge of two walls may take either, so
+                // only the boxes' names must agree)
+                let (a, b) = (a.as_ref().unwrap(), b.as_ref().unwrap());
+                if a.0 == "boxes" || b.0 == "boxes" {
+                    assert_eq!(a.0, b.0, "{backend:?} ray {k}");
+                }
+                assert!((a.1 - b.1).abs() <= 1e-4 * a.1, "{backend:?} ray {k}");
+            }
+            for (b, c) in b.iter().zip(&c) {
+                let (b, c) = (b.as_ref().unwrap(), c.as_ref().unwrap());
+                if c.0 != "sphere" && (b.0 == "boxes" || c.0 == "boxes") {
+                    assert_eq!(b, c, "{backend:?}");
+                }
+            }
+        }
     }
 }
