@@ -7,9 +7,10 @@
 //! map, a thin lens; then the production-scene effects: a few small boxes
 //! placed as instances (beside the same boxes as plain triangles), enough
 //! small emissive triangles that `--light-sampler auto` picks the light BVH
-//! (beside the same lights under `--light-sampler power`), a spot light, and
-//! a diffuse sphere with a normal map or a bump map (beside the plain
-//! diffuse sphere). Every variant renders in the same process, one after the
+//! (beside the same lights under `--light-sampler power`), a spot light, a
+//! screen cut out by an alpha mask of opacity 0.5 (beside the same screen
+//! opaque), and a diffuse sphere with a normal map or a bump map (beside the
+//! plain diffuse sphere). Every variant renders in the same process, one after the
 //! other in each repetition (so drifts in machine speed hit all rows alike),
 //! and each row reports the median over the repetitions of nanoseconds per
 //! sample (render seconds over pixels times spp), Mrays/s, and the ratio to
@@ -27,7 +28,8 @@ use crate::plan::{Kernel, Plan};
 use crate::render::{RenderSettings, render};
 use crate::sampler::SamplerKind;
 use crate::scene::{
-    BumpMap, Maps, Material, MeshRange, NO_OVERRIDE, PrototypeShading, Scene, SceneInstances,
+    AlphaMask, BumpMap, Maps, Material, MeshRange, NO_OVERRIDE, PrototypeShading, Scene,
+    SceneInstances,
 };
 use crate::settings::{IntegratorSettings, LIGHT_BVH_FROM, LightSampler};
 use crate::shape::Sphere;
@@ -362,6 +364,19 @@ fn with_spot_light(base: &Scene) -> Scene {
     s
 }
 
+/// The base scene with a screen: a vertical quad across the middle of its
+/// bounds (facing +z, half the scene's size on a side, its foot on the
+/// floor), of opacity `alpha` (`None`: opaque, no mask at all).
+fn with_screen(base: &Scene, alpha: Option<f32>) -> Scene {
+    let (size, floor) = size_and_floor(base);
+    let h = 0.5 * size;
+    let c = |x: f32, y: f32| floor + Vec3::new(x * h, y * h, 0.0);
+    let (a, b, cc, d) = (c(-0.5, 0.0), c(0.5, 0.0), c(0.5, 1.0), c(-0.5, 1.0));
+    let mut m = material("screen", grey(), None, Maps::default());
+    m.alpha_mask = alpha.map(AlphaMask::Constant);
+    with_triangles(base, "screen", m, &[[a, b, cc], [a, cc, d]])
+}
+
 /// A 64 x 64 checkerboard texture.
 fn checker() -> Arc<ImageTexture> {
     let mut rgb = Vec::with_capacity(64 * 64 * 3);
@@ -511,6 +526,12 @@ fn variants(base: &Scene) -> Vec<Variant> {
         },
         v(&format!("+ {n_lights} small lights"), lights, false),
         v("+ spot light", with_spot_light(base), false),
+        v("+ an opaque screen", with_screen(base, None), false),
+        v(
+            "+ the screen cut out (alpha 0.5)",
+            with_screen(base, Some(0.5)),
+            false,
+        ),
         v(
             "+ normal-mapped diffuse sphere",
             with_sphere(
@@ -726,6 +747,8 @@ mod tests {
             ("+ 64 small lights, --light-sampler power", &[]),
             ("+ 64 small lights", &["many_lights"]),
             ("+ spot light", &["spot_light"]),
+            ("+ an opaque screen", &[]),
+            ("+ the screen cut out (alpha 0.5)", &["alpha_mask"]),
             ("+ normal-mapped diffuse sphere", &["sphere", "normal_map"]),
             ("+ bump-mapped diffuse sphere", &["sphere", "bump_map"]),
         ];
@@ -749,8 +772,11 @@ mod tests {
         assert!(count(&variants[12]) >= LIGHT_BVH_FROM);
         assert!(count(&variants[0]) < LIGHT_BVH_FROM);
         let kernel = |v: &Variant| Plan::new(&v.scene, &v.integrator(integrator)).kernel;
-        assert_eq!(kernel(&variants[14]), kernel(&variants[2]));
-        assert_eq!(kernel(&variants[15]), kernel(&variants[2]));
+        assert_eq!(kernel(&variants[16]), kernel(&variants[2]));
+        assert_eq!(kernel(&variants[17]), kernel(&variants[2]));
+        // the cut-out screen runs the opaque one's kernel: the mask is tested
+        // in the traversal
+        assert_eq!(kernel(&variants[14]), kernel(&variants[15]));
         // --light-sampler power on the command line leaves the light BVH off
         let power = IntegratorSettings {
             light_sampler: LightSampler::Power,
