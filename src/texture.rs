@@ -252,6 +252,15 @@ impl ImageTexture {
         (1.0 - fy) * ((1.0 - fx) * a + fx * b) + fy * ((1.0 - fx) * c + fx * d)
     }
 
+    /// The largest [`ImageTexture::eval_scalar`] of any texel (a bilinear
+    /// lookup never exceeds it).
+    pub fn max_scalar(&self) -> f32 {
+        self.texels
+            .iter()
+            .map(|&c| if self.grey { c.x } else { luminance(c) })
+            .fold(0.0, f32::max)
+    }
+
     /// The smallest value [`ImageTexture::eval_scalar`] can return (bilinear
     /// lookup stays within the texels' range).
     pub fn min_scalar(&self) -> f32 {

@@ -52,7 +52,7 @@ pub use glass::Glass;
 pub use microfacet::{Distribution, Microfacet};
 pub use mirror::Mirror;
 pub use phong::{Lobe, Phong};
-pub use plastic::Plastic;
+pub use plastic::{Plastic, PlasticCoats};
 
 use crate::math::{Vec2, Vec3};
 

@@ -14,13 +14,14 @@
 //! |---|---|---|
 //! | `specular` | mirror and glass `reflectance`, phong `specular` | each channel to `[0, 1]` |
 //! | `transmittance` | glass `transmittance` | each channel to `[0, 1]` |
-//! | `alpha` | conductor `alpha` (a scalar: [`ImageTexture::eval_scalar`]) | `>= 0` (texels are finite and `>= 0` already) |
+//! | `alpha` | conductor and plastic `alpha` (a scalar: [`ImageTexture::eval_scalar`]) | `>= 0` (texels are finite and `>= 0` already) |
 //! | `emission` | any | none (texels are finite and `>= 0`) |
 //!
-//! A plastic's `alpha` cannot be textured: its coat's albedo table is
-//! integrated once per roughness (about 15 ms), so loaders refuse it.
+//! A plastic's coat albedo table is integrated once per roughness (about
+//! 15 ms), so a textured plastic roughness reads its coat from
+//! [`PlasticCoats`], built at load over the texture's range.
 
-use crate::bsdf::{Bsdf, Microfacet};
+use crate::bsdf::{Bsdf, Microfacet, PlasticCoats};
 use crate::math::{Vec2, Vec3};
 use crate::texture::ImageTexture;
 use std::sync::Arc;
@@ -45,8 +46,10 @@ pub struct Maps {
     pub specular: Option<Arc<ImageTexture>>,
     /// A glass's `transmittance`.
     pub transmittance: Option<Arc<ImageTexture>>,
-    /// A conductor's roughness.
+    /// A conductor's or plastic's roughness.
     pub alpha: Option<Arc<ImageTexture>>,
+    /// A plastic's coats over its roughness texture's range (with `alpha`).
+    pub plastic_coats: Option<Arc<PlasticCoats>>,
     /// Emitted radiance (then [`super::Material::emission`] is its mean).
     pub emission: Option<Arc<ImageTexture>>,
     /// A tangent-space normal map, read raw, with Mitsuba 3's encoding
@@ -92,6 +95,11 @@ impl Maps {
         if let (Some(t), Bsdf::Conductor(c)) = (&self.alpha, &mut *bsdf) {
             let alpha = t.eval_scalar(uv).max(0.0);
             c.microfacet = Microfacet::new(c.microfacet.distribution, alpha);
+        }
+        if let (Some(t), Some(coats), Bsdf::Plastic(p)) =
+            (&self.alpha, &self.plastic_coats, &mut *bsdf)
+        {
+            *p = coats.at(t.eval_scalar(uv).max(0.0), p.diffuse());
         }
     }
 

@@ -49,6 +49,7 @@ use super::{
 };
 use crate::bsdf::{
     Bsdf, Conductor, Diffuse, Distribution, Glass, Lobe, Microfacet, Mirror, Phong, Plastic,
+    PlasticCoats,
 };
 use crate::camera::ThinLens;
 use crate::error::{Error, Result};
@@ -769,12 +770,6 @@ fn apply_material(
                             .into(),
                     )),
                     Some(Param::Texture { file, raw }) => {
-                        if kind == "plastic" {
-                            return Err(fail(
-                                "material.alpha: a plastic's roughness cannot be textured (its coat table is built per roughness); give a number"
-                                    .into(),
-                            ));
-                        }
                         let t = textures.get(path, line, file, raw.unwrap_or(true))?;
                         // the smallest roughness stands for the texture, so
                         // the plan sees a delta lobe if any texel is smooth
@@ -834,16 +829,24 @@ fn apply_material(
                         lobe,
                     })
                 }
-                _ => Bsdf::Plastic(
-                    Plastic::with_options(
+                _ => {
+                    let (a, t) = alpha(textures, 0.0)?;
+                    let plastic = Plastic::with_options(
                         diffuse.constant,
                         ior,
-                        alpha(textures, 0.0)?.0,
+                        a,
                         distribution,
                         over.nonlinear.unwrap_or(true),
                     )
-                    .map_err(|e| fail(format!("material: {e}")))?,
-                ),
+                    .map_err(|e| fail(format!("material: {e}")))?;
+                    if let Some(t) = t {
+                        let coats = PlasticCoats::new(&plastic, t.min_scalar(), t.max_scalar())
+                            .map_err(|e| fail(format!("material.alpha: {e}")))?;
+                        maps.plastic_coats = Some(Arc::new(coats));
+                        maps.alpha = Some(t);
+                    }
+                    Bsdf::Plastic(plastic)
+                }
             };
             bsdf.validate()
                 .map_err(|e| fail(format!("material: {e}")))?;
