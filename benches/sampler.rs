@@ -57,7 +57,11 @@ fn main() {
         .unwrap_or(7);
     let blocks = 64;
     let samples = (blocks * SIDE * SIDE * SPP) as f64;
-    let kinds = [SamplerKind::Independent, SamplerKind::Sobol, SamplerKind::ZSobol];
+    let kinds = [
+        SamplerKind::Independent,
+        SamplerKind::Sobol,
+        SamplerKind::ZSobol,
+    ];
     let mut times = vec![Vec::new(); kinds.len()];
     let mut check = [0.0f32; 3];
     for _ in 0..reps {
