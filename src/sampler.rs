@@ -263,14 +263,18 @@ static SOBOL1_REVERSED: [[u32; 256]; 4] = {
     t
 };
 
-/// `sobol_dim1(i).reverse_bits()`, in four table lookups.
-#[inline]
+/// `sobol_dim1(i).reverse_bits()`, in two table lookups below `2^16` (a
+/// render's indices, but for zsobol's of images past 2^16 samples) and four
+/// above.
+#[inline(always)]
 fn sobol_dim1_reversed(i: u32) -> u32 {
     let t = &SOBOL1_REVERSED;
-    t[0][(i & 0xff) as usize]
-        ^ t[1][((i >> 8) & 0xff) as usize]
-        ^ t[2][((i >> 16) & 0xff) as usize]
-        ^ t[3][(i >> 24) as usize]
+    let low = t[0][(i & 0xff) as usize] ^ t[1][((i >> 8) & 0xff) as usize];
+    if i >> 16 == 0 {
+        low
+    } else {
+        low ^ t[2][((i >> 16) & 0xff) as usize] ^ t[3][(i >> 24) as usize]
+    }
 }
 
 /// The core of the Laine-Karras hash on a bit-reversed value: with the bits
@@ -281,7 +285,7 @@ fn sobol_dim1_reversed(i: u32) -> u32 {
 /// Sampling for Stochastic Transparency", EGSR 2011). The constants are
 /// Vegdahl's ("Building a Better LK Hash", 2021, also used by pbrt-v4's
 /// `FastOwenScrambler`).
-#[inline]
+#[inline(always)]
 fn lk_hash(mut x: u32, seed: u32) -> u32 {
     x ^= x.wrapping_mul(0x3d20_adea);
     x = x.wrapping_add(seed);
@@ -380,31 +384,41 @@ fn morton2(x: u32, y: u32) -> u64 {
 /// `PaddedSobolSampler` shuffles that way). This is the digit permutation
 /// of pbrt-v4's `ZSobolSampler` (Ahmed and Wonka 2020), applied here to a
 /// pixel's own sample index as well as to the Morton index.
-#[inline]
+#[inline(always)]
 fn nested_digits(index: u64, bits: u32, salt: u64) -> u64 {
     let odd = bits & 1;
+    let digits = bits >> 1;
+    // the digits from the lowest up (the same hashes as from the top: each
+    // digit's permutation is chosen by the digits above it, `rest`); each
+    // output enters at the top of `out` and moves down two bits a digit, so
+    // no shift depends on the digit's place until the last one
+    let mut rest = index >> odd;
     let mut out = 0u64;
-    let mut shift = bits;
-    while shift >= 2 + odd {
-        shift -= 2;
-        let digit = (index >> shift) & 3;
-        let higher = index >> (shift + 2);
-        out |= (PERMUTATIONS_4[choose_of_24(higher ^ salt)][digit as usize] as u64) << shift;
+    for _ in 0..digits {
+        let digit = (rest & 3) as usize;
+        rest >>= 2;
+        let p = PERMUTATIONS_4[choose_of_24(rest ^ salt)][digit] as u64;
+        out = (out >> 2) | (p << 62);
     }
+    // the digits fill the top `2 digits` bits (none: `out` is 0, and a
+    // shift by 64 wraps to 0)
+    let out = out.wrapping_shr(64 - 2 * digits);
     if odd == 1 {
-        out |= (index & 1) ^ (choose_of_24((index >> 1) ^ salt) as u64 & 1);
+        (out << 1) | ((index & 1) ^ (choose_of_24((index >> 1) ^ salt) as u64 & 1))
+    } else {
+        out
     }
-    out
 }
 
 /// A number in `0..24` from a hash of `x`: one multiplication by an odd
 /// constant (which carries every bit of `x` into the high word), then the
 /// high 32 bits scaled to 24 values. `x` already holds a full hash (the
 /// salt), so this only has to tell prefixes of one index apart.
-#[inline]
+#[inline(always)]
 fn choose_of_24(x: u64) -> usize {
-    let h = (x.wrapping_mul(0xd1b5_4a32_d192_ed03) >> 32) ^ (x >> 32);
-    (((h.wrapping_mul(0x9e37_79b9) & 0xffff_ffff) * 24) >> 32) as usize
+    // the low 32 bits of the product are those of the 32-bit product
+    let h = ((x.wrapping_mul(0xd1b5_4a32_d192_ed03) >> 32) ^ (x >> 32)) as u32;
+    ((h.wrapping_mul(0x9e37_79b9) as u64 * 24) >> 32) as usize
 }
 
 impl ZOrder {
@@ -428,6 +442,7 @@ impl ZOrder {
     }
 }
 
+#[inline(always)]
 fn unit(bits: u32) -> f32 {
     (bits >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
 }
@@ -492,11 +507,12 @@ impl Sampler {
                 (i as u32, hash)
             }
         };
-        // the hash's two halves scramble the two dimensions
-        Vec2::new(
-            unit(lk_hash(i, hash as u32).reverse_bits()),
-            unit(lk_hash(sobol_dim1_reversed(i), (hash >> 32) as u32).reverse_bits()),
-        )
+        // the hash's two halves scramble the two dimensions; one 64-bit
+        // reversal reverses both (and swaps them)
+        let x = lk_hash(i, hash as u32);
+        let y = lk_hash(sobol_dim1_reversed(i), (hash >> 32) as u32);
+        let r = ((y as u64) << 32 | x as u64).reverse_bits();
+        Vec2::new(unit((r >> 32) as u32), unit(r as u32))
     }
 }
 
@@ -535,6 +551,45 @@ mod tests {
             .collect();
         assert_eq!(d0, [0.0, 0.5, 0.25, 0.75, 0.125, 0.625, 0.375, 0.875]);
         assert_eq!(d1, [0.0, 0.5, 0.75, 0.25, 0.625, 0.125, 0.375, 0.875]);
+    }
+
+    /// [`nested_digits`] as first written: the digits from the top, each
+    /// shifted into place.
+    fn nested_digits_from_the_top(index: u64, bits: u32, salt: u64) -> u64 {
+        let odd = bits & 1;
+        let mut out = 0u64;
+        let mut shift = bits;
+        while shift >= 2 + odd {
+            shift -= 2;
+            let digit = (index >> shift) & 3;
+            let higher = index >> (shift + 2);
+            out |= (PERMUTATIONS_4[choose_of_24(higher ^ salt)][digit as usize] as u64) << shift;
+        }
+        if odd == 1 {
+            out |= (index & 1) ^ (choose_of_24((index >> 1) ^ salt) as u64 & 1);
+        }
+        out
+    }
+
+    #[test]
+    fn nested_digits_match_the_form_from_the_top() {
+        let mut salt = 0x1234_5678_9abc_def0u64;
+        // (at 64 bits the form from the top shifts by 64; no image has
+        // that many: zsobol's Morton index of a 2^16-pixel square at 2^31
+        // spp has 63)
+        for bits in 0..=63 {
+            for k in 0..200u64 {
+                salt = mix64(salt);
+                // small and large indices, and bits above `bits` (samples
+                // past the layout)
+                let index = mix64(k ^ salt) >> (k % 64);
+                assert_eq!(
+                    nested_digits(index, bits, salt),
+                    nested_digits_from_the_top(index, bits, salt),
+                    "index {index:#x} bits {bits} salt {salt:#x}"
+                );
+            }
+        }
     }
 
     #[test]
@@ -727,6 +782,55 @@ mod tests {
             assert!(seen.insert(p));
         }
         assert_eq!(morton2(0b11, 0b01), 0b0111);
+    }
+
+    /// A hash of the bits of every value the three samplers draw for a
+    /// few images, spp counts (odd and even `log2`, a pass past the
+    /// layout) and seeds, in a render's order of 2D and 1D requests.
+    fn stream_digest(kind: SamplerKind) -> u64 {
+        let mut h = 0xcbf2_9ce4_8422_2325u64;
+        let mut eat = |v: f32| {
+            h = (h ^ v.to_bits() as u64).wrapping_mul(0x0100_0000_01b3);
+        };
+        for (res, spp, seed) in [
+            ([7u32, 5u32], 1u32, 0u64),
+            ([16, 16], 8, 3),
+            ([33, 17], 32, 0xdead_beef),
+            ([64, 48], 64, 1),
+            ([3, 300], 2048, 12),
+        ] {
+            let space = SampleSpace::new(kind, seed, res, spp);
+            for y in (0..res[1]).step_by(3) {
+                for x in (0..res[0]).step_by(2) {
+                    for s in (0..spp + 2).step_by((spp as usize / 16).max(1)) {
+                        let mut smp = space.sampler(x, y, s);
+                        for d in 0..12 {
+                            if d % 3 == 2 {
+                                eat(smp.next_1d());
+                            } else {
+                                let p = smp.next_2d();
+                                eat(p.x);
+                                eat(p.y);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        h
+    }
+
+    #[test]
+    fn sample_values_are_pinned() {
+        // the values of commit 7f7fa7c: optimisations must keep every bit
+        // (reference images and resumed checkpoints depend on them)
+        for (kind, digest) in [
+            (SamplerKind::Independent, 0x584c_3d45_7171_3ffb),
+            (SamplerKind::Sobol, 0x6d08_2919_6ee5_c4e4),
+            (SamplerKind::ZSobol, 0xf2c0_b5a8_3833_f882),
+        ] {
+            assert_eq!(stream_digest(kind), digest, "{kind}");
+        }
     }
 
     #[test]
