@@ -90,15 +90,7 @@ impl ImageTexture {
                 ));
             }
         };
-        let texture = Self::from_linear_rgb(width, height, rgb).map_err(|e| match e {
-            Error::Settings(message) => Error::input(path, None, message),
-            other => other,
-        })?;
-        Ok(ImageTexture {
-            source: Some(path.to_path_buf()),
-            raw,
-            ..texture
-        })
+        Self::from_file(path, width, height, rgb, raw, false)
     }
 
     /// An opacity texture (an alpha mask): a PNG's alpha channel when it
@@ -113,14 +105,26 @@ impl ImageTexture {
             return Self::load_as(path, true);
         }
         let (width, height, rgb) = read_png_opacity(path)?;
+        Self::from_file(path, width, height, rgb, true, true)
+    }
+
+    /// The texture of the texels read from `path`, which errors name.
+    fn from_file(
+        path: &Path,
+        width: u32,
+        height: u32,
+        rgb: Vec<f32>,
+        raw: bool,
+        opacity: bool,
+    ) -> Result<Self> {
         let texture = Self::from_linear_rgb(width, height, rgb).map_err(|e| match e {
             Error::Settings(message) => Error::input(path, None, message),
             other => other,
         })?;
         Ok(ImageTexture {
             source: Some(path.to_path_buf()),
-            raw: true,
-            opacity: true,
+            raw,
+            opacity,
             ..texture
         })
     }

@@ -64,18 +64,23 @@ pub fn read_png(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
     read_png_as(path, false)
 }
 
+/// The decoded image of the PNG at `path`.
+fn decode(path: &Path) -> Result<::image::DynamicImage> {
+    let mut reader = ::image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
+    reader.set_format(::image::ImageFormat::Png);
+    reader.decode().map_err(|e| match e {
+        ::image::ImageError::IoError(e) => Error::io(path, e),
+        other => Error::input(path, None, format!("not a readable PNG file: {other}")),
+    })
+}
+
 /// A PNG as an opacity: its alpha channel when it has one, otherwise its
 /// stored values (as [`read_png_as`] with `raw`), each scaled to `[0, 1]`
 /// (alpha is linear by the PNG specification). `(width, height, rgb)` with
 /// the alpha repeated in all three channels, or the colour of an image
 /// without alpha.
 pub fn read_png_opacity(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
-    let mut reader = ::image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
-    reader.set_format(::image::ImageFormat::Png);
-    let img = reader.decode().map_err(|e| match e {
-        ::image::ImageError::IoError(e) => Error::io(path, e),
-        other => Error::input(path, None, format!("not a readable PNG file: {other}")),
-    })?;
+    let img = decode(path)?;
     if !img.color().has_alpha() {
         return read_png_as(path, true);
     }
@@ -91,12 +96,7 @@ pub fn read_png_opacity(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
 /// `[0, 1]` and not decoded from sRGB (Mitsuba's `bitmap` with `raw = true`:
 /// normal maps, roughness maps and other data that is not a colour).
 pub fn read_png_as(path: &Path, raw: bool) -> Result<(u32, u32, Vec<f32>)> {
-    let mut reader = ::image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
-    reader.set_format(::image::ImageFormat::Png);
-    let img = reader.decode().map_err(|e| match e {
-        ::image::ImageError::IoError(e) => Error::io(path, e),
-        other => Error::input(path, None, format!("not a readable PNG file: {other}")),
-    })?;
+    let img = decode(path)?;
     // 8-bit values v become 257 v exactly, so one 16-bit table serves both
     let img = img.into_rgb16();
     let lut: Vec<f32> = (0..=u16::MAX)
