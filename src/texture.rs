@@ -41,9 +41,6 @@ pub struct ImageTexture {
     source: Option<PathBuf>,
     /// A PNG read without sRGB decoding.
     raw: bool,
-    /// Read by [`ImageTexture::load_opacity`] (a PNG's alpha channel, or its
-    /// raw values).
-    opacity: bool,
     /// The mean texel.
     mean: Vec3,
     /// The texel, when every texel is the same.
@@ -90,7 +87,7 @@ impl ImageTexture {
                 ));
             }
         };
-        Self::from_file(path, width, height, rgb, raw, false)
+        Self::from_file(path, width, height, rgb, raw)
     }
 
     /// An opacity texture (an alpha mask): a PNG's alpha channel when it
@@ -105,7 +102,7 @@ impl ImageTexture {
             return Self::load_as(path, true);
         }
         let (width, height, rgb) = read_png_opacity(path)?;
-        Self::from_file(path, width, height, rgb, true, true)
+        Self::from_file(path, width, height, rgb, true)
     }
 
     /// The texture of the texels read from `path`, which errors name.
@@ -115,7 +112,6 @@ impl ImageTexture {
         height: u32,
         rgb: Vec<f32>,
         raw: bool,
-        opacity: bool,
     ) -> Result<Self> {
         let texture = Self::from_linear_rgb(width, height, rgb).map_err(|e| match e {
             Error::Settings(message) => Error::input(path, None, message),
@@ -124,7 +120,6 @@ impl ImageTexture {
         Ok(ImageTexture {
             source: Some(path.to_path_buf()),
             raw,
-            opacity,
             ..texture
         })
     }
@@ -169,16 +164,10 @@ impl ImageTexture {
             texels,
             source: None,
             raw: false,
-            opacity: false,
             mean,
             uniform,
             grey,
         })
-    }
-
-    /// Whether it was read as an opacity ([`ImageTexture::load_opacity`]).
-    pub fn is_opacity(&self) -> bool {
-        self.opacity
     }
 
     /// Whether a PNG was read raw (not decoded from sRGB).
@@ -259,10 +248,7 @@ impl ImageTexture {
     /// The largest [`ImageTexture::eval_scalar`] of any texel (a bilinear
     /// lookup never exceeds it).
     pub fn max_scalar(&self) -> f32 {
-        self.texels
-            .iter()
-            .map(|&c| if self.grey { c.x } else { luminance(c) })
-            .fold(0.0, f32::max)
+        self.texels.iter().map(|&c| self.scalar(c)).fold(0.0, f32::max)
     }
 
     /// The smallest value [`ImageTexture::eval_scalar`] can return (bilinear
@@ -270,8 +256,15 @@ impl ImageTexture {
     pub fn min_scalar(&self) -> f32 {
         self.texels
             .iter()
-            .map(|&c| if self.grey { c.x } else { luminance(c) })
+            .map(|&c| self.scalar(c))
             .fold(f32::INFINITY, f32::min)
+    }
+
+    /// A texel's scalar: its grey value in a grey image, otherwise its
+    /// luminance.
+    #[inline]
+    fn scalar(&self, c: Vec3) -> f32 {
+        if self.grey { c.x } else { luminance(c) }
     }
 
     /// The gradient `(d/du, d/dv)` at `uv` of [`ImageTexture::eval_scalar`]
@@ -294,10 +287,7 @@ impl ImageTexture {
             fy,
         } = self.cell(uv);
         let (w, h) = (self.width as usize, self.height as usize);
-        let f = |x: usize, y: usize| {
-            let c = self.texels[y * w + x];
-            if self.grey { c.x } else { luminance(c) }
-        };
+        let f = |x: usize, y: usize| self.scalar(self.texels[y * w + x]);
         let (a, b) = (f(x0, y0), f(x1, y0));
         let (c, d) = (f(x0, y1), f(x1, y1));
         let ds = (1.0 - fy) * (b - a) + fy * (d - c);
@@ -332,8 +322,7 @@ impl ImageTexture {
     /// A scalar at `uv`: the grey value of a grey image, otherwise the
     /// luminance of [`ImageTexture::eval`].
     pub fn eval_scalar(&self, uv: Vec2) -> f32 {
-        let c = self.eval(uv);
-        if self.grey { c.x } else { luminance(c) }
+        self.scalar(self.eval(uv))
     }
 }
 

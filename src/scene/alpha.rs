@@ -60,7 +60,7 @@ impl AlphaMask {
 /// of primitive `prim`: a hash of the bits of its origin and direction and
 /// of `prim` (SplitMix64's finaliser, chained), its top 24 bits scaled.
 #[inline]
-pub fn threshold(ray: &Ray, prim: u32) -> f32 {
+fn threshold(ray: &Ray, prim: u32) -> f32 {
     use crate::sampler::mix64;
     let bits = |a: f32, b: f32| (a.to_bits() as u64) << 32 | b.to_bits() as u64;
     let mut h = mix64(bits(ray.o.x, ray.o.y) ^ (prim as u64) << 7);
@@ -87,20 +87,20 @@ impl AlphaTest for Scene {
         let Some(mask) = &self.materials[self.material_index(prim) as usize].alpha_mask else {
             return false;
         };
-        let a = match mask {
-            AlphaMask::Constant(a) => *a,
-            AlphaMask::Texture(t) => {
-                let corners = match self.instanced(prim) {
-                    Some((k, t)) => self.instances.uv(k, t),
-                    None => self.tri_uv.get(prim as usize).copied(),
-                };
-                let Some(c) = corners else {
-                    return false;
-                };
-                t.eval_scalar((1.0 - u - v) * c[0] + u * c[1] + v * c[2])
-                    .clamp(0.0, 1.0)
-            }
+        // a constant needs no texture coordinates
+        let uv = if mask.is_textured() {
+            let corners = match self.instanced(prim) {
+                Some((k, t)) => self.instances.uv(k, t),
+                None => self.tri_uv.get(prim as usize).copied(),
+            };
+            let Some(c) = corners else {
+                return false;
+            };
+            (1.0 - u - v) * c[0] + u * c[1] + v * c[2]
+        } else {
+            Vec2::ZERO
         };
+        let a = mask.opacity(uv);
         // exact at 0 and 1: the threshold is below 1, and `>=` passes 0
         threshold(ray, prim) >= a
     }

@@ -38,7 +38,7 @@ use crate::texture::ImageTexture;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-pub use alpha::{AlphaMask, threshold as alpha_threshold};
+pub use alpha::AlphaMask;
 pub use builder::{SceneBuilder, WorldCamera, render_origin};
 use input::read_scene_text;
 pub(crate) use input::{Content, not_a_file, read_bounded};
