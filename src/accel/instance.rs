@@ -286,14 +286,7 @@ impl<A: PrototypeQuery> InstanceSet<A> {
             node.count = (hi - lo) as u32;
             return;
         }
-        let ext = cmax - cmin;
-        let axis = if ext.x >= ext.y && ext.x >= ext.z {
-            0
-        } else if ext.y >= ext.z {
-            1
-        } else {
-            2
-        };
+        let axis = super::longest_axis(cmax - cmin);
         let mid = (lo + hi) / 2;
         self.order[lo..hi].select_nth_unstable_by(mid - lo, |a, b| {
             centre(*a)[axis].total_cmp(&centre(*b)[axis]).then(a.cmp(b))

@@ -212,6 +212,19 @@ impl Accelerator for Masked<'_> {
     }
 }
 
+/// The axis (0, 1, 2) along which `extent` is longest, ties to the lower
+/// axis: where the median-split trees over placements and spheres cut.
+#[inline]
+pub(crate) fn longest_axis(extent: Vec3) -> usize {
+    if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    }
+}
+
 /// Whether the rays of a batch are likely to traverse the same nodes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Coherence {

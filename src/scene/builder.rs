@@ -311,8 +311,6 @@ impl SceneBuilder {
     pub fn add_prototype(&mut self, mut mesh: MeshData, line: Option<usize>) -> Result<u32> {
         self.check_mesh(&mesh, line)?;
         let base_material = self.absorb(&mut mesh);
-        self.counts.0 += mesh.indices.len() as u64;
-        self.counts.1 += mesh.positions.len() as u64;
         self.prototypes.push(PrototypeIn {
             mesh,
             base_material,
@@ -446,9 +444,12 @@ impl SceneBuilder {
         }
         s.instances = out;
     }
-    /// Move `mesh`'s warnings, files and materials into the scene; returns
-    /// the scene index of its first material.
+    /// Move `mesh`'s warnings, files and materials into the scene and count
+    /// its triangles and vertices towards the stored limits; returns the
+    /// scene index of its first material.
     fn absorb(&mut self, mesh: &mut MeshData) -> u32 {
+        self.counts.0 += mesh.indices.len() as u64;
+        self.counts.1 += mesh.positions.len() as u64;
         let s = &mut self.scene;
         s.warnings.append(&mut mesh.warnings);
         for f in mesh.files.drain(..) {
@@ -466,8 +467,6 @@ impl SceneBuilder {
     fn place(&mut self, mut mesh: MeshData, m: DAffine3, line: Option<usize>) {
         let base_material = self.absorb(&mut mesh);
         mesh.transform_by(&m);
-        self.counts.0 += mesh.indices.len() as u64;
-        self.counts.1 += mesh.positions.len() as u64;
         self.placed.push(Placed {
             mesh,
             base_material,
