@@ -106,13 +106,7 @@ impl ImageTexture {
     }
 
     /// The texture of the texels read from `path`, which errors name.
-    fn from_file(
-        path: &Path,
-        width: u32,
-        height: u32,
-        rgb: Vec<f32>,
-        raw: bool,
-    ) -> Result<Self> {
+    fn from_file(path: &Path, width: u32, height: u32, rgb: Vec<f32>, raw: bool) -> Result<Self> {
         let texture = Self::from_linear_rgb(width, height, rgb).map_err(|e| match e {
             Error::Settings(message) => Error::input(path, None, message),
             other => other,
@@ -248,7 +242,10 @@ impl ImageTexture {
     /// The largest [`ImageTexture::eval_scalar`] of any texel (a bilinear
     /// lookup never exceeds it).
     pub fn max_scalar(&self) -> f32 {
-        self.texels.iter().map(|&c| self.scalar(c)).fold(0.0, f32::max)
+        self.texels
+            .iter()
+            .map(|&c| self.scalar(c))
+            .fold(0.0, f32::max)
     }
 
     /// The smallest value [`ImageTexture::eval_scalar`] can return (bilinear

@@ -6,6 +6,9 @@
 //! rays see through, a black cut-out screen in front of a light lets
 //! `1 - a` of it through in a render, and bad input is a one-line error.
 
+mod common;
+
+use common::backends;
 use embertrace::accel::{self, AccelOptions, Accelerator, Backend, Hit};
 use embertrace::integrator::PathTracer;
 use embertrace::math::{Ray, Vec3};
@@ -66,18 +69,6 @@ fn rays_down(n: usize, seed: u64) -> Vec<Ray> {
             let o = Vec3::new(s.next_1d() - 0.5, s.next_1d() - 0.5, 3.0);
             let p = Vec3::new(1.6 * s.next_1d() - 0.8, 1.6 * s.next_1d() - 0.8, 0.0);
             Ray::new(o, (p - o).normalize())
-        })
-        .collect()
-}
-
-fn backends(scene: &Scene) -> Vec<(Backend, Box<dyn Accelerator>)> {
-    Backend::available()
-        .into_iter()
-        .map(|b| {
-            (
-                b,
-                accel::build(b, scene.soup(), AccelOptions::default()).unwrap(),
-            )
         })
         .collect()
 }

@@ -6,7 +6,9 @@
 //! Coordinates just inside the range are kept. Coordinates out of range in a
 //! file are a load error at their line (tests/cli.rs).
 
-use embertrace::accel::{self, AccelOptions, Backend};
+mod common;
+
+use common::backends;
 use embertrace::limits::MAX_COORDINATE;
 use embertrace::math::{Ray, Vec3};
 use embertrace::scene::Scene;
@@ -33,19 +35,6 @@ fn two_quads(scale: f32) -> Scene {
         "{CAMERA}[[mesh]]\nfile = \"q.obj\"\n\
          [[mesh]]\nfile = \"q.obj\"\ntransform = {{ scale = {scale:e}, translate = [0.0, 0.0, -1.0] }}\n"
     ))
-}
-
-/// Every backend built over `s`.
-fn backends(s: &Scene) -> Vec<(Backend, Box<dyn accel::Accelerator>)> {
-    Backend::available()
-        .into_iter()
-        .map(|b| {
-            (
-                b,
-                accel::build(b, s.soup(), AccelOptions::default()).unwrap(),
-            )
-        })
-        .collect()
 }
 
 #[test]

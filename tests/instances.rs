@@ -14,7 +14,10 @@
 //! - Memory grows with the placements by their transforms, not by the mesh.
 //! - The TOML keys: errors name the file and line.
 
-use embertrace::accel::{self, AccelOptions, Accelerator, Backend, Hit};
+mod common;
+
+use common::backends;
+use embertrace::accel::{self, AccelOptions, Backend, Hit};
 use embertrace::math::{DVec3, Ray, Vec3, spawn_ray};
 use embertrace::sampler::Sampler;
 use embertrace::sampling::square_to_uniform_sphere;
@@ -106,18 +109,6 @@ fn rays(maps: &[DAffine3], per_map: usize) -> Vec<Ray> {
         }
     }
     out
-}
-
-fn backends(scene: &Scene) -> Vec<(Backend, Box<dyn Accelerator>)> {
-    Backend::available()
-        .into_iter()
-        .map(|b| {
-            (
-                b,
-                accel::build(b, scene.soup(), AccelOptions::default()).unwrap(),
-            )
-        })
-        .collect()
 }
 
 /// The placement index and prototype triangle of a hit on `scene`.

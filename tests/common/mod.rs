@@ -4,6 +4,7 @@
 //! tests share one run).
 #![allow(dead_code)]
 
+use embertrace::accel::{self, AccelOptions, Accelerator, Backend};
 use embertrace::math::Vec3;
 use embertrace::scene::{Material, MeshData, Scene, SceneBuilder, Transform};
 use std::path::Path;
@@ -337,4 +338,17 @@ impl MeanTest {
             .collect::<Vec<_>>()
             .join("\n")
     }
+}
+
+/// Every backend compiled in, built over `scene`.
+pub fn backends(scene: &Scene) -> Vec<(Backend, Box<dyn Accelerator>)> {
+    Backend::available()
+        .into_iter()
+        .map(|b| {
+            (
+                b,
+                accel::build(b, scene.soup(), AccelOptions::default()).unwrap(),
+            )
+        })
+        .collect()
 }
