@@ -376,7 +376,7 @@ impl Lights {
                 let to = scene.surface_point(light.prim, b.x, b.y);
                 (to, None, light.area, (light.prim, b.x, b.y))
             }
-            Emitter::Quad(q) => {
+            Emitter::Quad(ref q) => {
                 let spherical = q.spherical(from.p);
                 let (s, t) = match &spherical {
                     Some(sr) => {
@@ -470,7 +470,7 @@ impl Lights {
                 }
                 light.area
             }
-            Emitter::Quad(q) => {
+            Emitter::Quad(ref q) => {
                 if let Some(sr) = q.spherical(from.p) {
                     return pmf * (1.0 / sr.solid_angle()) as f32;
                 }

@@ -170,7 +170,7 @@ impl Quad {
     /// The rectangle seen from `o`, when it is one and spherical sampling
     /// applies there.
     pub(crate) fn spherical(&self, o: Vec3) -> Option<SphericalRectangle> {
-        let rect = self.rect?;
+        let rect = self.rect.as_ref()?;
         // the solid angle, roughly, from the centre: A |n . v| / d^3; below
         // SPHERICAL_PAYS_ABOVE area sampling is nearly as good and cheaper
         // (compared squared: no root, no division)
