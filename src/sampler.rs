@@ -493,6 +493,19 @@ impl Sampler {
         }
     }
 
+    /// Move past the number [`Sampler::next_1d`] would give, without
+    /// computing it: the stream goes on exactly as if it had been drawn.
+    #[inline]
+    pub fn skip_1d(&mut self) {
+        match &mut self.seq {
+            Seq::Independent => {
+                self.next_u32();
+            }
+            Seq::Sobol(s) => s.dimension += 1,
+            Seq::ZSobol(z) => z.dimension += 1,
+        }
+    }
+
     /// Two uniform numbers in `[0, 1)`.
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
@@ -830,6 +843,37 @@ mod tests {
             (SamplerKind::ZSobol, 0xf2c0_b5a8_3833_f882),
         ] {
             assert_eq!(stream_digest(kind), digest, "{kind}");
+        }
+    }
+
+    #[test]
+    fn skipping_a_number_leaves_the_stream_as_drawing_it() {
+        for kind in [
+            SamplerKind::Independent,
+            SamplerKind::Sobol,
+            SamplerKind::ZSobol,
+        ] {
+            let space = SampleSpace::new(kind, 3, [20, 10], 16);
+            for (x, y, i) in [(0, 0, 0), (7, 3, 5), (19, 9, 15)] {
+                let (mut drawn, mut skipped) = (space.sampler(x, y, i), space.sampler(x, y, i));
+                for k in 0..12 {
+                    if k % 3 == 1 {
+                        drawn.next_1d();
+                        skipped.skip_1d();
+                    }
+                    let (a, b) = (drawn.next_2d(), skipped.next_2d());
+                    assert_eq!(
+                        a.to_array().map(f32::to_bits),
+                        b.to_array().map(f32::to_bits)
+                    );
+                    assert_eq!(
+                        drawn.next_1d().to_bits(),
+                        skipped.next_1d().to_bits(),
+                        "{kind}"
+                    );
+                }
+                assert_eq!(drawn.next_u32(), skipped.next_u32(), "{kind}");
+            }
         }
     }
 

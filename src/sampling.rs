@@ -192,6 +192,12 @@ impl Discrete {
         self.bins.is_empty()
     }
 
+    /// Whether one item has all the weight: then [`Discrete::sample`] gives
+    /// it for every `u`, and a caller need not draw `u` at all.
+    pub fn is_certain(&self) -> bool {
+        self.bins.len() == 1
+    }
+
     /// Probability of item `i`.
     #[inline]
     pub fn pmf(&self, i: usize) -> f32 {
@@ -308,5 +314,17 @@ mod tests {
         assert_eq!(d.pmf(3), 0.75);
         assert_eq!(d.pmf(0), 0.0);
         assert!(Discrete::new(&[0.0, f32::NAN]).sample(0.5).is_none());
+    }
+
+    #[test]
+    fn a_certain_choice_ignores_its_number() {
+        // one item of positive weight among zeros: every u gives it
+        let d = Discrete::new(&[0.0, 2.5, 0.0]);
+        assert!(d.is_certain());
+        for &u in &EXTREMES {
+            assert_eq!(d.sample(u), Some(DiscreteSample { index: 1, pmf: 1.0 }));
+        }
+        assert!(!Discrete::new(&[1.0, 1e-30]).is_certain());
+        assert!(!Discrete::new(&[0.0]).is_certain());
     }
 }

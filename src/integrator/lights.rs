@@ -221,6 +221,14 @@ impl Lights {
         }
     }
 
+    /// Whether [`Lights::choose`] gives the same light whatever its number
+    /// (one light, or one with all the power, chosen without the BVH): the
+    /// path tracer then skips drawing that number.
+    #[inline]
+    pub fn choice_is_certain(&self) -> bool {
+        self.bvh.is_none() && self.select.is_certain()
+    }
+
     /// Whether lights are chosen by the light BVH.
     pub fn uses_bvh(&self) -> bool {
         self.bvh.is_some()

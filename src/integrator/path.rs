@@ -434,6 +434,7 @@ impl<'a> PathTracer<'a> {
         }
         let rounds = self.settings.light_samples.max(1);
         let n_light = rounds as f32;
+        let certain = self.lights.choice_is_certain();
         let mut sum = [Vec3::ZERO; BATCH];
         let mut shadow = [NO_RAY; BATCH];
         let mut pending = [Pending {
@@ -450,7 +451,13 @@ impl<'a> PathTracer<'a> {
                     continue;
                 };
                 any = true;
-                let u_sel = lane.sampler.next_1d();
+                // the light choice's number, drawn only where it can matter
+                let u_sel = if certain {
+                    lane.sampler.skip_1d();
+                    0.0
+                } else {
+                    lane.sampler.next_1d()
+                };
                 let u = lane.sampler.next_2d();
                 let from = sh.from.as_ref().unwrap_or(&sh.its.sp);
                 let Some(ls) = self.lights.sample(self.scene, from, u_sel, u) else {
