@@ -63,7 +63,9 @@ use super::mirror::specular_reflection;
 use super::{BsdfSample, Bxdf, choose_lobe, sample_at};
 use crate::math::{Vec2, Vec3};
 use crate::sampling::{square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf};
+use std::collections::HashMap;
 use std::f32::consts::PI;
+use std::sync::{Mutex, OnceLock};
 
 /// Nodes of the rough coat's albedo table, at `mu = (i / (N - 1))^3`: dense
 /// near grazing, where `E` changes fastest. With [`TABLE_GRID`], the table
@@ -77,6 +79,32 @@ const TABLE_GRID: usize = 64;
 /// Midpoints for `E_avg = 2 integral E(mu) mu dmu`.
 const AVG_STEPS: usize = 4096;
 
+/// A rough coat's albedo table, `E(mu)` at the nodes. Tables are shared
+/// and live for the process ([`intern`]): a `Plastic` holds references, so
+/// it stays small enough to copy per hit (with the table inline it was 304
+/// bytes, and copying it showed in profiles as a `memmove` per bounce).
+type CoatTable = &'static [f32; TABLE];
+
+/// The table of a smooth coat, which never reads it.
+static NO_TABLE: [f32; TABLE] = [0.0; TABLE];
+
+/// The process's copy of `table`: one per distinct table ever built (a
+/// scene's plastics, 16 per textured roughness), so loading a scene again
+/// adds none.
+fn intern(table: [f32; TABLE]) -> CoatTable {
+    type Tables = HashMap<[u32; TABLE], CoatTable>;
+    static TABLES: OnceLock<Mutex<Tables>> = OnceLock::new();
+    let mut tables = TABLES
+        .get_or_init(Default::default)
+        .lock()
+        // a panic elsewhere while holding the lock leaves the map whole
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    let shared: &CoatTable = tables
+        .entry(table.map(f32::to_bits))
+        .or_insert_with(|| Box::leak(Box::new(table)));
+    shared
+}
+
 /// A diffuse base under a dielectric coat.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Plastic {
@@ -84,7 +112,11 @@ pub struct Plastic {
     ior: f32,
     microfacet: Microfacet,
     /// `E(mu)` at the table's nodes (rough coat only).
-    coat_albedo: [f32; TABLE],
+    coat_albedo: CoatTable,
+    /// A second table and the weight it gets, between levels of a textured
+    /// roughness ([`PlasticCoats::at`]); weight 0 otherwise.
+    coat_next: CoatTable,
+    coat_t: f32,
     /// `2 integral E(mu) mu dmu`.
     coat_avg: f32,
     /// `rho / (pi (eta^2 - rho (eta^2 - 1 + E_avg)))` per channel: `f_d`
@@ -127,17 +159,22 @@ impl Plastic {
             diffuse,
             ior,
             microfacet,
-            coat_albedo: [0.0; TABLE],
+            coat_albedo: &NO_TABLE,
+            coat_next: &NO_TABLE,
+            coat_t: 0.0,
             coat_avg: 0.0,
             kd: Vec3::ZERO,
             base_albedo: 0.0,
             nonlinear,
         };
         if !microfacet.is_smooth() {
-            for (i, e) in p.coat_albedo.iter_mut().enumerate() {
+            let mut table = [0.0; TABLE];
+            for (i, e) in table.iter_mut().enumerate() {
                 let s = i as f32 / (TABLE - 1) as f32;
                 *e = rough_coat_albedo(&microfacet, ior, (s * s * s).max(1e-5));
             }
+            p.coat_albedo = intern(table);
+            p.coat_next = p.coat_albedo;
         }
         let mut avg = 0.0f64;
         for i in 0..AVG_STEPS {
@@ -201,7 +238,13 @@ impl Plastic {
         let s = mu.clamp(0.0, 1.0).cbrt() * (TABLE - 1) as f32;
         let i = (s as usize).min(TABLE - 2);
         let t = s - i as f32;
-        (1.0 - t) * self.coat_albedo[i] + t * self.coat_albedo[i + 1]
+        let at = |table: CoatTable| (1.0 - t) * table[i] + t * table[i + 1];
+        let e = at(self.coat_albedo);
+        if self.coat_t == 0.0 {
+            e
+        } else {
+            (1.0 - self.coat_t) * e + self.coat_t * at(self.coat_next)
+        }
     }
 
     /// The coat's hemispherical albedo `E_avg = 2 integral E(mu) mu dmu`.
@@ -416,8 +459,8 @@ impl PlasticCoats {
             a.microfacet.distribution,
             alpha.max(Microfacet::SMOOTH_ALPHA),
         );
-        for (k, e) in p.coat_albedo.iter_mut().enumerate() {
-            *e = (1.0 - t) * a.coat_albedo[k] + t * b.coat_albedo[k];
+        if t > 0.0 {
+            (p.coat_next, p.coat_t) = (b.coat_albedo, t);
         }
         p.coat_avg = (1.0 - t) * a.coat_avg + t * b.coat_avg;
         p.set_diffuse(diffuse.clamp(Vec3::ZERO, Vec3::ONE));
@@ -492,6 +535,17 @@ mod tests {
         );
         // the non-linear sum weights a darker base less
         assert!(non(0.5).x < l5.x);
+    }
+
+    #[test]
+    fn coat_tables_are_shared_and_the_bsdf_stays_small() {
+        let a = Plastic::new(Vec3::splat(0.5), 1.5, 0.2).unwrap();
+        let b = Plastic::new(Vec3::splat(0.1), 1.5, 0.2).unwrap();
+        let c = Plastic::new(Vec3::splat(0.5), 1.5, 0.3).unwrap();
+        assert!(std::ptr::eq(a.coat_albedo, b.coat_albedo));
+        assert!(!std::ptr::eq(a.coat_albedo, c.coat_albedo));
+        // the kernels copy a BSDF per hit: no inline tables
+        assert!(std::mem::size_of::<super::super::Bsdf>() <= 96);
     }
 
     #[test]
