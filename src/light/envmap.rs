@@ -240,13 +240,17 @@ impl EnvironmentMap {
             su -= 1.0;
         }
         let wi = uv_to_direction(Vec2::new(su, s.p.y));
-        let pdf = self.pdf(wi);
+        // the map coordinates of `wi` itself (not `(su, v)`), once for both
+        // the density and the radiance, so that they are `pdf(wi)` and
+        // `eval(wi)` bit for bit
+        let uv = direction_to_uv(wi);
+        let pdf = self.pdf_at(wi, uv);
         if !(pdf > 0.0) || !pdf.is_finite() {
             return None;
         }
         Some(EnvironmentSample {
             wi,
-            li: self.eval(wi),
+            li: self.eval_uv(uv),
             pdf,
         })
     }
