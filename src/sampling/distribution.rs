@@ -89,6 +89,11 @@ impl PiecewiseConstant1D {
     /// whose cumulative table is built from `weights` (the same values, in
     /// `f64` where the caller has them more exactly).
     fn with_weights(func: Vec<f32>, weights: &[f64]) -> Self {
+        assert!(
+            u32::try_from(func.len()).is_ok(),
+            "{} cells: at most 2^32 - 1",
+            func.len()
+        );
         let n = func.len() as f64;
         let mut cdf = Vec::with_capacity(func.len() + 1);
         cdf.push(0.0);
@@ -145,14 +150,7 @@ impl PiecewiseConstant1D {
     /// or last cell).
     #[inline]
     pub fn cell_of(&self, x: f32) -> usize {
-        // x has 24 significant bits and n < 2^29, so the product is exact;
-        // for a positive product truncation is the floor
-        let i = x as f64 * self.func.len() as f64;
-        if i > 0.0 {
-            (i as usize).min(self.func.len() - 1)
-        } else {
-            0
-        }
+        cell_index(x, self.func.len())
     }
 
     /// Density of cell `i`.
@@ -173,37 +171,7 @@ impl PiecewiseConstant1D {
 
     /// The point whose cumulative probability is `u` (clamped to `[0, 1]`).
     pub fn sample(&self, u: f32) -> Sample1D {
-        let n = self.func.len();
-        let total = self.cdf[n];
-        let u = (u as f64).clamp(0.0, 1.0);
-        let target = u * total;
-        // the first cell whose upper cumulative bound exceeds the target has
-        // `cdf[i] <= target < cdf[i + 1]`, so it has positive probability;
-        // the guide narrows the search, and the answer is checked against
-        // that definition (rounding can put it one entry off the guide's
-        // range, when the whole table is searched instead)
-        let k = ((u * n as f64) as usize).min(n - 1);
-        let (lo, hi) = (self.guide[k] as usize, self.guide[k + 1] as usize);
-        let mut i = lo + self.cdf[1 + lo..=1 + hi].partition_point(|&c| c <= target);
-        let first = (i == 0 || self.cdf[i] <= target) && (i >= n || self.cdf[i + 1] > target);
-        if !first {
-            i = self.cdf[1..].partition_point(|&c| c <= target);
-        }
-        if i >= n {
-            // u == 1: the last cell with positive probability, at its top
-            i = self.cdf[1..].partition_point(|&c| c < total);
-        }
-        let (lo, hi) = (self.cdf[i], self.cdf[i + 1]);
-        let du = ((target - lo) / (hi - lo)).clamp(0.0, 1.0);
-        let mut x = ((i as f64 + du) / n as f64) as f32;
-        // Rounding to f32 can carry x onto a cell boundary: keep it in cell
-        // i (and below 1), so that `pdf(x)` is the density reported here.
-        while self.cell_of(x) > i || x >= 1.0 {
-            x = crate::math::next_float_down(x);
-        }
-        while self.cell_of(x) < i {
-            x = crate::math::next_float_up(x);
-        }
+        let (x, i) = invert(&self.cdf, &self.guide, u);
         Sample1D {
             x,
             pdf: self.pdf_cell(i),
@@ -212,13 +180,83 @@ impl PiecewiseConstant1D {
     }
 }
 
+/// The cell of `n` (`0 < n < 2^32`) equal cells on `[0, 1)` that holds `x`
+/// (points outside are clamped to the first or last cell).
+#[inline]
+fn cell_index(x: f32, n: usize) -> usize {
+    // x has 24 significant bits and n < 2^29, so the product is exact (and
+    // no larger n fits in memory); for a positive product truncation is the
+    // floor. Through u32, not usize: x86-64 converts between f64 and u32 in
+    // one instruction, and saturating at 2^32 - 1 gives the same clamp.
+    let i = x as f64 * n as u32 as f64;
+    if i > 0.0 {
+        (i as u32 as usize).min(n - 1)
+    } else {
+        0
+    }
+}
+
+/// The point `x` whose cumulative probability is `u` (clamped to `[0, 1]`)
+/// and its cell `i`, for the cumulative table `cdf` of `n` cells (`n + 1`
+/// entries, see [`PiecewiseConstant1D`]) and its guide table `guide`.
+#[inline]
+fn invert(cdf: &[f64], guide: &[u32], u: f32) -> (f32, usize) {
+    let n = cdf.len() - 1;
+    // n < 2^32 (checked when the table was built): exact in f64, and one
+    // instruction from u32
+    let nf = n as u32 as f64;
+    let total = cdf[n];
+    let u = (u as f64).clamp(0.0, 1.0);
+    let target = u * total;
+    // the first cell whose upper cumulative bound exceeds the target has
+    // `cdf[i] <= target < cdf[i + 1]`, so it has positive probability;
+    // the guide narrows the search, and the answer is checked against
+    // that definition (rounding can put it one entry off the guide's
+    // range, when the whole table is searched instead)
+    let k = ((u * nf) as u32 as usize).min(n - 1);
+    let (lo, hi) = (guide[k] as usize, guide[k + 1] as usize);
+    let mut i = lo + cdf[1 + lo..=1 + hi].partition_point(|&c| c <= target);
+    let first = (i == 0 || cdf[i] <= target) && (i >= n || cdf[i + 1] > target);
+    if !first {
+        i = cdf[1..].partition_point(|&c| c <= target);
+    }
+    if i >= n {
+        // u == 1: the last cell with positive probability, at its top
+        i = cdf[1..].partition_point(|&c| c < total);
+    }
+    let (lo, hi) = (cdf[i], cdf[i + 1]);
+    let du = ((target - lo) / (hi - lo)).clamp(0.0, 1.0);
+    let mut x = ((i as u32 as f64 + du) / nf) as f32;
+    // Rounding to f32 can carry x onto a cell boundary: keep it in cell
+    // i (and below 1), so that `pdf(x)` is the density reported here.
+    while cell_index(x, n) > i || x >= 1.0 {
+        x = crate::math::next_float_down(x);
+    }
+    while cell_index(x, n) < i {
+        x = crate::math::next_float_up(x);
+    }
+    (x, i)
+}
+
 /// A piecewise-constant density on `[0, 1)^2` over a grid of `nx` columns by
 /// `ny` rows: the marginal density picks a row `y`, the row's conditional
 /// density picks `x`.
+///
+/// The rows' tables lie one after another in flat arrays, and the density
+/// of every cell is kept ready, so a draw or a density lookup goes straight
+/// to its row's entries (no row object to load first) and divides nothing.
 #[derive(Debug, Clone)]
 pub struct PiecewiseConstant2D {
-    /// One conditional per row.
-    rows: Vec<PiecewiseConstant1D>,
+    /// Columns.
+    nx: usize,
+    /// The rows' cumulative tables ([`PiecewiseConstant1D`]'s `cdf`),
+    /// `nx + 1` entries each, row 0 first.
+    cdf: Vec<f64>,
+    /// The rows' guide tables, `nx + 1` entries each.
+    guide: Vec<u32>,
+    /// Density of each cell with respect to area, row-major:
+    /// `f / integral` rounded to `f32` (1 everywhere for all-zero input).
+    pdf: Vec<f32>,
     /// Over rows, weighted by each row's integral.
     marginal: PiecewiseConstant1D,
 }
@@ -241,12 +279,33 @@ impl PiecewiseConstant2D {
         let row_integrals: Vec<f64> = rows.iter().map(|r| r.integral()).collect();
         let row_func: Vec<f32> = row_integrals.iter().map(|&w| w as f32).collect();
         let marginal = PiecewiseConstant1D::with_weights(row_func, &row_integrals);
-        PiecewiseConstant2D { rows, marginal }
+        let total = marginal.integral;
+        let mut cdf = Vec::with_capacity(ny * (nx + 1));
+        let mut guide = Vec::with_capacity(ny * (nx + 1));
+        let mut pdf = Vec::with_capacity(nx * ny);
+        for row in &rows {
+            cdf.extend_from_slice(&row.cdf);
+            guide.extend_from_slice(&row.guide);
+            pdf.extend(row.func.iter().map(|&f| {
+                if total > 0.0 {
+                    (f as f64 / total) as f32
+                } else {
+                    1.0
+                }
+            }));
+        }
+        PiecewiseConstant2D {
+            nx,
+            cdf,
+            guide,
+            pdf,
+            marginal,
+        }
     }
 
     /// Number of columns and rows.
     pub fn size(&self) -> [usize; 2] {
-        [self.rows[0].len(), self.rows.len()]
+        [self.nx, self.marginal.len()]
     }
 
     /// Integral of the function over the unit square (0 for all-zero input,
@@ -258,18 +317,14 @@ impl PiecewiseConstant2D {
     /// Density of cell `[column, row]` with respect to area.
     #[inline]
     pub fn pdf_cell(&self, cell: [usize; 2]) -> f32 {
-        let total = self.marginal.integral;
-        if total > 0.0 {
-            (self.rows[cell[1]].func[cell[0]] as f64 / total) as f32
-        } else {
-            1.0
-        }
+        assert!(cell[0] < self.nx, "column {} of {}", cell[0], self.nx);
+        self.pdf[cell[1] * self.nx + cell[0]]
     }
 
     /// The cell holding `p` (clamped onto the grid).
     #[inline]
     pub fn cell_of(&self, p: Vec2) -> [usize; 2] {
-        [self.rows[0].cell_of(p.x), self.marginal.cell_of(p.y)]
+        [cell_index(p.x, self.nx), self.marginal.cell_of(p.y)]
     }
 
     /// Density at `p` with respect to area on the unit square.
@@ -280,12 +335,14 @@ impl PiecewiseConstant2D {
 
     /// The point for `u` in `[0, 1]^2`: `u.y` picks the row, `u.x` the point
     /// along it.
+    #[inline]
     pub fn sample(&self, u: Vec2) -> Sample2D {
-        let y = self.marginal.sample(u.y);
-        let x = self.rows[y.cell].sample(u.x);
-        let cell = [x.cell, y.cell];
+        let (y, row) = invert(&self.marginal.cdf, &self.marginal.guide, u.y);
+        let entries = row * (self.nx + 1)..(row + 1) * (self.nx + 1);
+        let (x, column) = invert(&self.cdf[entries.clone()], &self.guide[entries], u.x);
+        let cell = [column, row];
         Sample2D {
-            p: Vec2::new(x.x, y.x),
+            p: Vec2::new(x, y),
             pdf: self.pdf_cell(cell),
             cell,
         }
