@@ -210,8 +210,8 @@ impl ImageTexture {
     /// Texel `(x, y)` with both indices wrapped onto the image.
     #[inline]
     pub fn texel_wrapped(&self, x: i64, y: i64) -> Vec3 {
-        let x = x.rem_euclid(self.width as i64) as usize;
-        let y = y.rem_euclid(self.height as i64) as usize;
+        let x = wrap(x, self.width as usize);
+        let y = wrap(y, self.height as usize);
         self.texels[y * self.width as usize + x]
     }
 
@@ -295,15 +295,15 @@ impl ImageTexture {
     /// The bilinear cell around `uv`: continuous texel coordinates with
     /// texel centres at integers, its corner texels wrapped once each (a
     /// division; the neighbours from those) and the weights within it.
-    #[inline]
+    #[inline(always)]
     fn cell(&self, uv: Vec2) -> Cell {
         let s = uv.x as f64 * self.width as f64 - 0.5;
         let t = (1.0 - uv.y as f64) * self.height as f64 - 0.5;
         let (x0, y0) = (crate::math::floor_f64(s), crate::math::floor_f64(t));
         let (fx, fy) = ((s - x0) as f32, (t - y0) as f32);
         let (w, h) = (self.width as usize, self.height as usize);
-        let x0 = (x0 as i64).rem_euclid(w as i64) as usize;
-        let y0 = (y0 as i64).rem_euclid(h as i64) as usize;
+        let x0 = wrap(x0 as i64, w);
+        let y0 = wrap(y0 as i64, h);
         let x1 = if x0 + 1 == w { 0 } else { x0 + 1 };
         let y1 = if y0 + 1 == h { 0 } else { y0 + 1 };
         Cell {
@@ -320,6 +320,26 @@ impl ImageTexture {
     /// luminance of [`ImageTexture::eval`].
     pub fn eval_scalar(&self, uv: Vec2) -> f32 {
         self.scalar(self.eval(uv))
+    }
+}
+
+/// `i` wrapped onto `0..n` (`rem_euclid`), without a division for the
+/// indices a lookup at `uv` in or next to `[0, 1]^2` has: inside, or one
+/// period off on either side.
+#[inline(always)]
+fn wrap(i: i64, n: usize) -> usize {
+    let n = n as i64;
+    let j = if i < 0 {
+        i + n
+    } else if i >= n {
+        i - n
+    } else {
+        i
+    };
+    if (0..n).contains(&j) {
+        j as usize
+    } else {
+        i.rem_euclid(n) as usize
     }
 }
 
