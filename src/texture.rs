@@ -357,6 +357,22 @@ struct Cell {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn wrap_is_rem_euclid() {
+        for n in [1usize, 2, 3, 7, 64, 1000] {
+            let m = n as i64;
+            let edges = [0, 1, m - 1, m, m + 1, 2 * m - 1, 2 * m, 3 * m + 2];
+            for e in edges {
+                for i in [e, -e, -e - 1] {
+                    assert_eq!(wrap(i, n), i.rem_euclid(m) as usize, "{i} mod {n}");
+                }
+            }
+            for i in [i64::MIN, i64::MIN + 1, i64::MAX, i64::MAX - 1] {
+                assert_eq!(wrap(i, n), i.rem_euclid(m) as usize, "{i} mod {n}");
+            }
+        }
+    }
     use crate::image::srgb_to_linear;
 
     fn checker() -> ImageTexture {
