@@ -14,7 +14,9 @@
 //!   charges a leaf per block lane, so leaves fill their blocks, and a leaf
 //!   of several blocks saves the node step above it: in a large scene that
 //!   step is a cache miss that the next node's address waits for, whereas
-//!   the blocks' loads are independent of each other.
+//!   the blocks' loads are independent of each other. Nodes and blocks
+//!   live on transparent huge pages where they are large (`pages.rs`):
+//!   traversal is bound by the latency of their loads.
 //! - Traversal (`traverse.rs`): closest-hit (children visited near-first)
 //!   and any-hit loops over a fixed stack of [`STACK_SIZE`] entries on the
 //!   call stack, sized by the depth bound the builder guarantees: no
