@@ -276,7 +276,7 @@ impl WatertightRay {
 /// with their original indices: the unit [`WatertightRay::intersect4`]
 /// tests at once. Unused lanes repeat lane 0 and are masked out by the
 /// caller's lane mask.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C, align(16))]
 pub struct Tri4 {
     /// Corner coordinates: `p[corner][axis][lane]`.

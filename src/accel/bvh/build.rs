@@ -42,6 +42,7 @@
 
 use super::BvhQuality;
 use super::node::{Aabb, BLOCK, ChildRef, LEAF_MAX, LEVELS, Node, WIDTH};
+use super::pages::PageArray;
 use glam::{Vec3A, Vec4};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -826,7 +827,7 @@ fn flatten(
 /// shape.
 pub struct Tree {
     /// Nodes, depth-first.
-    pub nodes: Vec<Node>,
+    pub nodes: PageArray<Node>,
     /// The root.
     pub root: ChildRef,
     /// Ranges of `prims`, one per triangle block, in block order.
@@ -849,7 +850,8 @@ pub fn build(prims: &mut [PrimRef], quality: BvhQuality) -> Tree {
         _ => build_inner(root, quality),
     };
     let stats = built.shape();
-    let mut nodes = vec![Node::EMPTY; stats.nodes];
+    // `flatten` writes every node (in parallel, faulting its pages in)
+    let mut nodes = PageArray::zeroed(stats.nodes);
     let mut blocks = vec![0..0; stats.blocks];
     let root = flatten(built, &mut nodes, 0, &mut blocks, 0);
     Tree {

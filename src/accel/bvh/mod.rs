@@ -14,7 +14,9 @@
 //!   charges a leaf per block lane, so leaves fill their blocks, and a leaf
 //!   of several blocks saves the node step above it: in a large scene that
 //!   step is a cache miss that the next node's address waits for, whereas
-//!   the blocks' loads are independent of each other.
+//!   the blocks' loads are independent of each other. Nodes and blocks
+//!   live on transparent huge pages where they are large (`pages.rs`):
+//!   traversal is bound by the latency of their loads.
 //! - Traversal (`traverse.rs`): closest-hit (children visited near-first)
 //!   and any-hit loops over a fixed stack of [`STACK_SIZE`] entries on the
 //!   call stack, sized by the depth bound the builder guarantees: no
@@ -38,6 +40,7 @@
 
 mod build;
 mod node;
+mod pages;
 mod traverse;
 
 #[cfg(test)]
@@ -54,6 +57,7 @@ use crate::error::{Error, Result};
 use crate::math::Ray;
 use build::PrimRef;
 use node::{Aabb, ChildRef, Node};
+use pages::PageArray;
 use rayon::prelude::*;
 
 /// Traversal stack entries (99). Each 8-wide node on the path to the
@@ -76,10 +80,10 @@ pub enum BvhQuality {
 
 /// The pure-Rust BVH.
 pub struct Bvh {
-    /// Nodes, depth-first.
-    nodes: Vec<Node>,
+    /// Nodes, depth-first (on huge pages where large, as the blocks).
+    nodes: PageArray<Node>,
     /// Triangle blocks, one to four per leaf, in depth-first order.
-    blocks: Vec<Tri4>,
+    blocks: PageArray<Tri4>,
     /// The root: an inner node, or a leaf for tiny scenes; `None` when no
     /// triangle is finite.
     root: Option<ChildRef>,
@@ -138,8 +142,8 @@ impl Bvh {
         })?;
         if prims.is_empty() {
             return Ok(Bvh {
-                nodes: Vec::new(),
-                blocks: Vec::new(),
+                nodes: PageArray::zeroed(0),
+                blocks: PageArray::zeroed(0),
                 root: None,
                 bounds: Aabb::EMPTY,
                 stats: TreeStats::default(),
@@ -148,20 +152,19 @@ impl Bvh {
             });
         }
         let tree = build::build(&mut prims, quality);
-        let blocks = tree
-            .blocks
-            .par_iter()
-            .map(|r| {
+        // every block is written below
+        let mut blocks = PageArray::<Tri4>::zeroed(tree.blocks.len());
+        blocks
+            .par_iter_mut()
+            .zip(tree.blocks.par_iter())
+            .for_each(|(b, r)| {
                 // a block holds 1 to 4 triangles; unused lanes repeat the first
                 let leaf = &prims[r.clone()];
-                let mut b = Tri4::default();
                 for l in 0..4 {
                     let p = &leaf[if l < leaf.len() { l } else { 0 }];
                     b.set(l, corners(&soup.indices[p.id() as usize]), p.id());
                 }
-                b
-            })
-            .collect();
+            });
         Ok(Bvh {
             nodes: tree.nodes,
             blocks,
@@ -185,8 +188,8 @@ impl Accelerator for Bvh {
     }
 
     fn memory_bytes(&self) -> usize {
-        self.nodes.capacity() * std::mem::size_of::<Node>()
-            + self.blocks.capacity() * std::mem::size_of::<Tri4>()
+        self.nodes.memory_bytes()
+            + self.blocks.memory_bytes()
             + self.spheres.memory_bytes()
             + self.instances.memory_bytes()
     }

@@ -100,7 +100,8 @@ pub const MAX_TRIANGLES: usize = 1 << (31 - COUNT_BITS);
 /// A child reference: an inner node's index, or (top bit set) a leaf: the
 /// first `count <= LEAF_MAX` triangles of the consecutive blocks starting at
 /// block `block` (every block full but the last).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+#[repr(transparent)]
 pub struct ChildRef(pub u32);
 
 impl ChildRef {
@@ -161,7 +162,9 @@ impl ChildRef {
 /// occupies exactly four cache lines. An unused slot has the empty box: the
 /// slab test of the traversal rejects it for every ray (its near plane is at
 /// `+inf` whatever the direction's sign), so it needs no separate check.
-#[derive(Debug, Clone, Copy)]
+/// Plain data with no implicit padding, so that it can live in memory
+/// mapped for huge pages ([`super::pages`]).
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 #[repr(C, align(64))]
 pub struct Node {
     /// `planes[a][slot]` is the lower plane on axis `a` (`0..3`), and
@@ -170,6 +173,8 @@ pub struct Node {
     pub planes: [[f32; WIDTH]; 6],
     /// Child references.
     pub child: [ChildRef; WIDTH],
+    /// Fills the node to whole cache lines.
+    pad: [u32; WIDTH],
 }
 
 impl Node {
@@ -184,6 +189,7 @@ impl Node {
             [f32::NEG_INFINITY; WIDTH],
         ],
         child: [ChildRef(0); WIDTH],
+        pad: [0; WIDTH],
     };
 
     /// Put child `r` with bounds `b` in slot `k`.

@@ -189,6 +189,7 @@ impl Bvh {
         }
         let wr = WatertightRay::new(ray);
         let sr = SlabRay::new(ray, &wr, &self.bounds);
+        let (nodes, blocks) = (self.nodes.as_slice(), self.blocks.as_slice());
         let mut best: Option<Hit> = None;
         let mut t_max = ray.t_max;
         let mut stack = [Entry {
@@ -198,7 +199,7 @@ impl Bvh {
         let mut sp = 0;
         loop {
             if !cur.is_leaf() {
-                let node = &self.nodes[cur.index()];
+                let node = &nodes[cur.index()];
                 let (t, key, mask) = sr.test(node, t_max);
                 if mask != 0 {
                     let first = mask.trailing_zeros() as usize;
@@ -258,7 +259,7 @@ impl Bvh {
                 // every block of a leaf is full but the last; their loads
                 // do not depend on each other
                 let (first, n) = (cur.block(), cur.blocks());
-                for (k, block) in self.blocks[first..first + n].iter().enumerate() {
+                for (k, block) in blocks[first..first + n].iter().enumerate() {
                     let lanes = if k + 1 == n { cur.last_lanes() } else { 0b1111 };
                     wr.intersect4(block, lanes, t_max)
                         .fold_closest(block, &mut best, &mut t_max, filter);
@@ -289,12 +290,13 @@ impl Bvh {
         }
         let wr = WatertightRay::new(ray);
         let sr = SlabRay::new(ray, &wr, &self.bounds);
+        let (nodes, blocks) = (self.nodes.as_slice(), self.blocks.as_slice());
         let t_max = ray.t_max;
         let mut stack = [ChildRef(0); STACK_SIZE];
         let mut sp = 0;
         loop {
             if !cur.is_leaf() {
-                let node = &self.nodes[cur.index()];
+                let node = &nodes[cur.index()];
                 let (t, _, mask) = sr.test(node, t_max);
                 if mask != 0 {
                     // descend into the nearest child (an occluder near the
@@ -317,7 +319,7 @@ impl Bvh {
                 }
             } else {
                 let (first, n) = (cur.block(), cur.blocks());
-                for (k, block) in self.blocks[first..first + n].iter().enumerate() {
+                for (k, block) in blocks[first..first + n].iter().enumerate() {
                     let lanes = if k + 1 == n { cur.last_lanes() } else { 0b1111 };
                     if wr.intersect4(block, lanes, t_max).any_kept(block, filter) {
                         return true;
