@@ -238,11 +238,12 @@ def race_scene(name, args, cache):
             results[r.name]["time_at_target"] = time_at(results[r.name]["fit"], target)
         best = min(theirs, key=lambda m: results[m.name]["time_at_target"])
         t_best = results[best.name]["time_at_target"]
-        t_ind = results[theirs[0].name]["time_at_target"]
+        # Mitsuba's default sampler, when it raced (`--samplers` may leave it out)
+        t_ind = results.get("mitsuba independent", {}).get("time_at_target")
         for r in ours + theirs:
             results[r.name]["ratio_to_mitsuba_best"] = results[r.name]["time_at_target"] / t_best
             results[r.name]["ratio_to_mitsuba_independent"] = (
-                results[r.name]["time_at_target"] / t_ind)
+                results[r.name]["time_at_target"] / t_ind if t_ind else None)
         eff = efficiency(scene_file, w, h) if not args.no_efficiency else None
         return {"scene": name, "resolution": [w, h], "target_rmse": target,
                 "mitsuba_best": best.name, "reference_mean_ratio_minus_1": ref_bias,
@@ -267,7 +268,8 @@ def markdown(all_results, args):
             lines.append(
                 f"| {r['scene']} | {name} | {errs} | {res['samples_per_second'] / 1e6:.2f} | "
                 f"{res['time_at_target']:.3f} s | {res['ratio_to_mitsuba_best']:.2f}x | "
-                f"{res['ratio_to_mitsuba_independent']:.2f}x |")
+                + (f"{res['ratio_to_mitsuba_independent']:.2f}x |"
+                   if res['ratio_to_mitsuba_independent'] is not None else "- |"))
     lines.append("")
     lines.append("| scene | Mitsuba best | target RMSE | references' means differ by | "
                  "embertrace efficiency |")
