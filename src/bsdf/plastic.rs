@@ -113,10 +113,9 @@ pub struct Plastic {
     microfacet: Microfacet,
     /// `E(mu)` at the table's nodes (rough coat only).
     coat_albedo: CoatTable,
-    /// A second table and the weight it gets, between levels of a textured
-    /// roughness ([`PlasticCoats::at`]); weight 0 otherwise.
-    coat_next: CoatTable,
-    coat_t: f32,
+    /// Between two levels of a textured roughness ([`PlasticCoats::at`]):
+    /// the upper level's table and the weight (in `(0, 1)`) it gets.
+    coat_between: Option<(CoatTable, f32)>,
     /// `2 integral E(mu) mu dmu`.
     coat_avg: f32,
     /// `rho / (pi (eta^2 - rho (eta^2 - 1 + E_avg)))` per channel: `f_d`
@@ -160,8 +159,7 @@ impl Plastic {
             ior,
             microfacet,
             coat_albedo: &NO_TABLE,
-            coat_next: &NO_TABLE,
-            coat_t: 0.0,
+            coat_between: None,
             coat_avg: 0.0,
             kd: Vec3::ZERO,
             base_albedo: 0.0,
@@ -174,7 +172,6 @@ impl Plastic {
                 *e = rough_coat_albedo(&microfacet, ior, (s * s * s).max(1e-5));
             }
             p.coat_albedo = intern(table);
-            p.coat_next = p.coat_albedo;
         }
         let mut avg = 0.0f64;
         for i in 0..AVG_STEPS {
@@ -240,10 +237,9 @@ impl Plastic {
         let t = s - i as f32;
         let at = |table: CoatTable| (1.0 - t) * table[i] + t * table[i + 1];
         let e = at(self.coat_albedo);
-        if self.coat_t == 0.0 {
-            e
-        } else {
-            (1.0 - self.coat_t) * e + self.coat_t * at(self.coat_next)
+        match self.coat_between {
+            None => e,
+            Some((next, w)) => (1.0 - w) * e + w * at(next),
         }
     }
 
@@ -460,7 +456,7 @@ impl PlasticCoats {
             alpha.max(Microfacet::SMOOTH_ALPHA),
         );
         if t > 0.0 {
-            (p.coat_next, p.coat_t) = (b.coat_albedo, t);
+            p.coat_between = Some((b.coat_albedo, t));
         }
         p.coat_avg = (1.0 - t) * a.coat_avg + t * b.coat_avg;
         p.set_diffuse(diffuse.clamp(Vec3::ZERO, Vec3::ONE));
