@@ -293,8 +293,8 @@ impl ImageTexture {
     }
 
     /// The bilinear cell around `uv`: continuous texel coordinates with
-    /// texel centres at integers, its corner texels wrapped once each (a
-    /// division; the neighbours from those) and the weights within it.
+    /// texel centres at integers, its corner texels wrapped once each
+    /// ([`wrap`]; the neighbours from those) and the weights within it.
     #[inline(always)]
     fn cell(&self, uv: Vec2) -> Cell {
         let s = uv.x as f64 * self.width as f64 - 0.5;
