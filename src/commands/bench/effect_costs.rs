@@ -377,46 +377,46 @@ fn with_screen(base: &Scene, alpha: Option<f32>) -> Scene {
     with_triangles(base, "screen", m, &[[a, b, cc], [a, cc, d]])
 }
 
+/// A 64 x 64 texture whose texel `(x, y)` (row 0 at the top) is `texel(x, y)`.
+fn texture_64(texel: impl Fn(u32, u32) -> [f32; 3]) -> Arc<ImageTexture> {
+    let rgb = (0..64u32)
+        .flat_map(|y| (0..64u32).map(move |x| (x, y)))
+        .flat_map(|(x, y)| texel(x, y))
+        .collect();
+    Arc::new(ImageTexture::from_linear_rgb(64, 64, rgb).expect("a valid 64 x 64 texture"))
+}
+
 /// A 64 x 64 checkerboard texture.
 fn checker() -> Arc<ImageTexture> {
-    let mut rgb = Vec::with_capacity(64 * 64 * 3);
-    for y in 0..64 {
-        for x in 0..64 {
-            let v = if (x / 8 + y / 8) % 2 == 0 { 0.7 } else { 0.2 };
-            rgb.extend([v, v, v]);
-        }
-    }
-    Arc::new(ImageTexture::from_linear_rgb(64, 64, rgb).expect("a valid texture"))
+    texture_64(|x, y| [if (x / 8 + y / 8) % 2 == 0 { 0.7 } else { 0.2 }; 3])
+}
+
+/// Eight by eight bumps over the unit square, at texel `(x, y)` of 64: the
+/// texel's coordinates and the bumps' angular frequency.
+fn bump_coordinates(x: u32, y: u32) -> (f32, f32, f32) {
+    (
+        x as f32 / 64.0,
+        y as f32 / 64.0,
+        std::f32::consts::TAU * 8.0,
+    )
 }
 
 /// A 64 x 64 normal map (raw, Mitsuba's encoding `(n + 1) / 2`) of eight
 /// by eight bumps: normals tilted up to about 17 degrees.
 fn bumps_normal_map() -> Arc<ImageTexture> {
-    let mut rgb = Vec::with_capacity(64 * 64 * 3);
-    for y in 0..64 {
-        for x in 0..64 {
-            let (u, v) = (x as f32 / 64.0, y as f32 / 64.0);
-            let a = std::f32::consts::TAU * 8.0;
-            let n = Vec3::new(0.3 * (a * u).cos(), 0.3 * (a * v).cos(), 1.0).normalize();
-            let c = 0.5 * (n + Vec3::ONE);
-            rgb.extend([c.x, c.y, c.z]);
-        }
-    }
-    Arc::new(ImageTexture::from_linear_rgb(64, 64, rgb).expect("a valid normal map"))
+    texture_64(|x, y| {
+        let (u, v, a) = bump_coordinates(x, y);
+        let n = Vec3::new(0.3 * (a * u).cos(), 0.3 * (a * v).cos(), 1.0).normalize();
+        (0.5 * (n + Vec3::ONE)).to_array()
+    })
 }
 
 /// A 64 x 64 height map of eight by eight bumps, heights in [0, 1].
 fn bumps_height_map() -> Arc<ImageTexture> {
-    let mut rgb = Vec::with_capacity(64 * 64 * 3);
-    for y in 0..64 {
-        for x in 0..64 {
-            let (u, v) = (x as f32 / 64.0, y as f32 / 64.0);
-            let a = std::f32::consts::TAU * 8.0;
-            let h = 0.5 + 0.25 * ((a * u).sin() + (a * v).sin());
-            rgb.extend([h, h, h]);
-        }
-    }
-    Arc::new(ImageTexture::from_linear_rgb(64, 64, rgb).expect("a valid height map"))
+    texture_64(|x, y| {
+        let (u, v, a) = bump_coordinates(x, y);
+        [0.5 + 0.25 * ((a * u).sin() + (a * v).sin()); 3]
+    })
 }
 
 /// A 64 x 32 sky: a blue gradient and a bright spot.
