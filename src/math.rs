@@ -25,6 +25,8 @@
 //! `tests/conformance.rs`: a 2000-unit sliver, and a needle of a sphere
 //! squashed 1e-4 : 2e-3 : 8).
 
+pub mod trig;
+
 pub use glam::{DVec3, Vec2, Vec3, Vec3A};
 
 /// A ray `o + t d` for `t` in `[0, t_max]`. `d` is unit length unless stated

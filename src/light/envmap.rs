@@ -35,7 +35,7 @@
 //! continuous there, so the estimate changes by a rounding error at most.)
 
 use crate::error::{Error, Result};
-use crate::math::{Vec2, Vec3, luminance};
+use crate::math::{Vec2, Vec3, luminance, trig};
 use crate::sampling::PiecewiseConstant2D;
 use crate::texture::ImageTexture;
 use std::f32::consts::PI;
@@ -66,7 +66,8 @@ pub struct EnvironmentMap {
 }
 
 /// The map coordinates `(u, v)` in `[0, 1) x [0, 1]` of the unit direction
-/// `d` (towards the sky).
+/// `d` (towards the sky), through [`trig`]'s `atan2` and `acos` (within
+/// three ulps of the exact angles, and no C library call).
 #[inline]
 pub fn direction_to_uv(d: Vec3) -> Vec2 {
     // At the poles the azimuth is undefined; u = 0 there, as in Mitsuba 3,
@@ -74,7 +75,7 @@ pub fn direction_to_uv(d: Vec3) -> Vec2 {
     let mut u = if d.x == 0.0 && d.z == 0.0 {
         0.0
     } else {
-        d.x.atan2(-d.z) * (0.5 / PI)
+        trig::atan2(d.x, -d.z) * (0.5 / PI)
     };
     if u < 0.0 {
         u += 1.0;
@@ -82,7 +83,7 @@ pub fn direction_to_uv(d: Vec3) -> Vec2 {
     if u >= 1.0 {
         u = 0.0;
     }
-    let v = d.y.clamp(-1.0, 1.0).acos() * (1.0 / PI);
+    let v = trig::acos(d.y.clamp(-1.0, 1.0)) * (1.0 / PI);
     Vec2::new(u, v)
 }
 

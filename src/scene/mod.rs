@@ -31,7 +31,7 @@ use crate::bsdf::{Bsdf, Diffuse};
 use crate::camera::{Camera, CameraDesc, ThinLens};
 use crate::error::{Error, Result};
 use crate::light::{DirectionalLight, EnvironmentMap, PointLight, SpotLight};
-use crate::math::{DVec3, Ray, SurfacePoint, Vec2, Vec3};
+use crate::math::{DVec3, Ray, SurfacePoint, Vec2, Vec3, trig};
 use crate::settings::RenderDefaults;
 use crate::shape::Sphere;
 use crate::texture::ImageTexture;
@@ -408,13 +408,13 @@ impl Scene {
             },
             Some(_) => {
                 let n = sp.n;
-                let phi = (-n.z).atan2(n.x);
+                let phi = trig::atan2(-n.z, n.x);
                 let phi = if phi < 0.0 {
                     phi + std::f32::consts::TAU
                 } else {
                     phi
                 };
-                let theta = n.y.clamp(-1.0, 1.0).acos();
+                let theta = trig::acos(n.y.clamp(-1.0, 1.0));
                 Vec2::new(
                     phi / std::f32::consts::TAU,
                     1.0 - theta / std::f32::consts::PI,
