@@ -357,6 +357,7 @@ struct Cell {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::image::srgb_to_linear;
 
     #[test]
     fn wrap_is_rem_euclid() {
@@ -373,7 +374,6 @@ mod tests {
             }
         }
     }
-    use crate::image::srgb_to_linear;
 
     fn checker() -> ImageTexture {
         // 2 x 2: top row red, green; bottom row blue, white
