@@ -184,10 +184,12 @@ impl PiecewiseConstant1D {
 /// (points outside are clamped to the first or last cell).
 #[inline]
 fn cell_index(x: f32, n: usize) -> usize {
-    // x has 24 significant bits and n < 2^29, so the product is exact (and
-    // no larger n fits in memory); for a positive product truncation is the
-    // floor. Through u32, not usize: x86-64 converts between f64 and u32 in
-    // one instruction, and saturating at 2^32 - 1 gives the same clamp.
+    // x has 24 significant bits, so for n < 2^29 the product is exact and
+    // truncating a positive product is the floor; for larger tables it may
+    // round up across a cell boundary, which moves a point by one cell but
+    // keeps draws and densities consistent, since both find cells here.
+    // Through u32, not usize: x86-64 converts between f64 and u32 in one
+    // instruction, and saturating at 2^32 - 1 gives the same clamp.
     let i = x as f64 * n as u32 as f64;
     if i > 0.0 {
         (i as u32 as usize).min(n - 1)
