@@ -6,7 +6,9 @@
 use crate::math::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};
 
+pub mod bilinear;
 pub mod distribution;
+pub use bilinear::{BilinearSample, PeriodicBilinear2D};
 pub use distribution::{PiecewiseConstant1D, PiecewiseConstant2D, Sample1D, Sample2D};
 
 /// Concentric map of the unit square to the unit disk (Shirley and Chiu 1997).

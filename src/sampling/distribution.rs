@@ -85,6 +85,21 @@ impl PiecewiseConstant1D {
         Self::with_weights(func, &weights)
     }
 
+    /// The density proportional to `weights`, kept in `f64` for the
+    /// cumulative table (negative and non-finite values count as zero).
+    pub(crate) fn from_f64(weights: &[f64]) -> Self {
+        assert!(
+            !weights.is_empty(),
+            "a piecewise-constant function needs a cell"
+        );
+        let weights: Vec<f64> = weights
+            .iter()
+            .map(|&w| if w.is_finite() && w > 0.0 { w } else { 0.0 })
+            .collect();
+        let func = weights.iter().map(|&w| w as f32).collect();
+        Self::with_weights(func, &weights)
+    }
+
     /// The distribution over cells with values `func` (already non-negative)
     /// whose cumulative table is built from `weights` (the same values, in
     /// `f64` where the caller has them more exactly).
@@ -169,6 +184,15 @@ impl PiecewiseConstant1D {
         self.pdf_cell(self.cell_of(x))
     }
 
+    /// The cell whose cumulative range holds `u` (clamped to `[0, 1]`), a
+    /// cell of positive probability, and where in that range `u` falls, in
+    /// `[0, 1]`: for a caller that samples inside the cell by a density of
+    /// its own.
+    #[inline]
+    pub fn locate(&self, u: f32) -> (usize, f64) {
+        locate(&self.cdf, &self.guide, u)
+    }
+
     /// The point whose cumulative probability is `u` (clamped to `[0, 1]`).
     pub fn sample(&self, u: f32) -> Sample1D {
         let (x, i) = invert(&self.cdf, &self.guide, u);
@@ -198,11 +222,12 @@ fn cell_index(x: f32, n: usize) -> usize {
     }
 }
 
-/// The point `x` whose cumulative probability is `u` (clamped to `[0, 1]`)
-/// and its cell `i`, for the cumulative table `cdf` of `n` cells (`n + 1`
-/// entries, see [`PiecewiseConstant1D`]) and its guide table `guide`.
+/// The cell `i` whose cumulative range holds the fraction `u` (clamped to
+/// `[0, 1]`) of the total, a cell of positive probability, and where in that
+/// range `u` falls, `du` in `[0, 1]` (in `f64`, finer than a point of
+/// [`invert`] can say).
 #[inline]
-fn invert(cdf: &[f64], guide: &[u32], u: f32) -> (f32, usize) {
+fn locate(cdf: &[f64], guide: &[u32], u: f32) -> (usize, f64) {
     let n = cdf.len() - 1;
     // n < 2^32 (checked when the table was built): exact in f64, and one
     // instruction from u32
@@ -227,7 +252,17 @@ fn invert(cdf: &[f64], guide: &[u32], u: f32) -> (f32, usize) {
         i = cdf[1..].partition_point(|&c| c < total);
     }
     let (lo, hi) = (cdf[i], cdf[i + 1]);
-    let du = ((target - lo) / (hi - lo)).clamp(0.0, 1.0);
+    (i, ((target - lo) / (hi - lo)).clamp(0.0, 1.0))
+}
+
+/// The point `x` whose cumulative probability is `u` (clamped to `[0, 1]`)
+/// and its cell `i`, for the cumulative table `cdf` of `n` cells (`n + 1`
+/// entries, see [`PiecewiseConstant1D`]) and its guide table `guide`.
+#[inline]
+fn invert(cdf: &[f64], guide: &[u32], u: f32) -> (f32, usize) {
+    let (i, du) = locate(cdf, guide, u);
+    let n = cdf.len() - 1;
+    let nf = n as u32 as f64;
     let mut x = ((i as u32 as f64 + du) / nf) as f32;
     // Rounding to f32 can carry x onto a cell boundary: keep it in cell
     // i (and below 1), so that `pdf(x)` is the density reported here.
