@@ -1,5 +1,5 @@
 //! The light building blocks on their own: the environment map against
-//! Mitsuba 3's values, chi-square fits of the 2D distribution and of the
+//! Mitsuba 3's values, chi-square fits of the 2D distributions and of the
 //! environment's direction sampling (hard case 12), and irradiance furnaces
 //! for constant and image environments (hard case 23's estimator without the
 //! geometry); and the scene's light set: an emissive sphere sampled in the
@@ -14,13 +14,13 @@ use embertrace::light::EnvironmentMap;
 use embertrace::light::envmap::{direction_to_uv, uv_to_direction};
 use embertrace::math::{DVec3, Vec2, Vec3};
 use embertrace::sampler::Sampler;
-use embertrace::sampling::PiecewiseConstant2D;
+use embertrace::sampling::{PeriodicBilinear2D, PiecewiseConstant2D};
 use embertrace::texture::ImageTexture;
 use std::f64::consts::PI;
 use std::path::PathBuf;
 
 /// Chi-square tests in this file, for the Sidak correction.
-const CHI2_TESTS: usize = 6;
+const CHI2_TESTS: usize = 8;
 const N: usize = 1_000_000;
 
 fn data(name: &str) -> PathBuf {
@@ -150,10 +150,56 @@ fn chi2_piecewise_constant_2d() {
     chi2_test(CHI2_TESTS, "piecewise-constant 2D", &obs, &exp);
 }
 
+#[test]
+fn chi2_periodic_bilinear_2d() {
+    // 10 x 6 vertices: a zero vertex row, zero vertices, a bright vertex on
+    // the last column (its patches wrap to column 0), values spanning 1e3
+    let (nx, rows) = (10usize, 6usize);
+    let f: Vec<f32> = (0..nx * rows)
+        .map(|k| {
+            let (x, y) = (k % nx, k / nx);
+            if y == 4 || (x + 3 * y) % 7 == 0 {
+                0.0
+            } else {
+                0.1 * (1 + (x * 5 + y * 2) % 9) as f32 * if x == 9 { 100.0 } else { 1.0 }
+            }
+        })
+        .collect();
+    let d = PeriodicBilinear2D::new(&f, nx, rows);
+    let ny = rows - 1;
+    // each patch split 3 x 3; a bilinear density's mass over a rectangle
+    // inside one patch is its area times the density at its centre
+    let (bx, by) = (3 * nx, 3 * ny);
+    let mut obs = vec![0.0; bx * by];
+    let mut s = Sampler::new(43, 0, 0);
+    for _ in 0..N {
+        let x = d.sample(s.next_2d());
+        let i = ((x.p.x as f64 * bx as f64) as usize).min(bx - 1);
+        let j = ((x.p.y as f64 * by as f64) as usize).min(by - 1);
+        obs[j * bx + i] += 1.0;
+    }
+    let exp: Vec<f64> = (0..bx * by)
+        .map(|k| {
+            let (i, j) = (k % bx, k / bx);
+            let centre = Vec2::new(
+                ((i as f64 + 0.5) / bx as f64) as f32,
+                ((j as f64 + 0.5) / by as f64) as f32,
+            );
+            d.pdf(centre) as f64 / (bx * by) as f64 * N as f64
+        })
+        .collect();
+    let sum: f64 = exp.iter().sum();
+    assert!(
+        (sum / N as f64 - 1.0).abs() < 1e-5,
+        "expected counts sum to {sum}"
+    );
+    chi2_test(CHI2_TESTS, "periodic bilinear 2D", &obs, &exp);
+}
+
 /// Directions binned over (cos theta, phi), 100 x 200 cells, phi measured
 /// from the map's seam shifted by half a texel (so the bins in u start where
 /// the sampling patches do). Each bin's expected count is the exact integral
-/// of the piecewise-constant `pdf_uv` over it: a bin in (cos theta, phi) is a
+/// of the piecewise-bilinear `pdf_uv` over it: a bin in (cos theta, phi) is a
 /// rectangle in (u, v).
 #[test]
 fn chi2_environment_directions() {
@@ -174,18 +220,14 @@ fn chi2_environment_directions() {
         let j = ((sx * np as f64) as usize).min(np - 1);
         obs[i * np + j] += 1.0;
     }
-    // pdf_uv of each patch, read through the public pdf at its centre
+    // pdf_uv at (s, v) in patch space, read through the public pdf
     let (px, py) = (w, h - 1);
-    let mut pdf_uv = vec![0.0f64; px * py];
-    for r in 0..py {
-        for k in 0..px {
-            let u = ((k as f64 + 0.5) / px as f64 + shift).rem_euclid(1.0);
-            let v = (r as f64 + 0.5) / py as f64;
-            let d = uv_to_direction(Vec2::new(u as f32, v as f32));
-            let sin_t = ((d.x * d.x + d.z * d.z) as f64).sqrt();
-            pdf_uv[r * px + k] = env.pdf(d) as f64 * 2.0 * PI * PI * sin_t;
-        }
-    }
+    let pdf_uv = |sx: f64, v: f64| {
+        let u = (sx + shift).rem_euclid(1.0);
+        let d = uv_to_direction(Vec2::new(u as f32, v as f32));
+        let sin_t = ((d.x * d.x + d.z * d.z) as f64).sqrt();
+        env.pdf(d) as f64 * 2.0 * PI * PI * sin_t
+    };
     let overlap = |a0: f64, a1: f64, b0: f64, b1: f64| (a1.min(b1) - a0.max(b0)).max(0.0);
     let mut exp = vec![0.0; nc * np];
     for i in 0..nc {
@@ -196,14 +238,23 @@ fn chi2_environment_directions() {
         for j in 0..np {
             let (s0, s1) = (j as f64 / np as f64, (j + 1) as f64 / np as f64);
             let mut mass = 0.0;
+            // the bin's part in each patch is a rectangle in (s, v), and
+            // the bilinear pdf_uv's mass over it is its area times the
+            // value at its centre
             for r in 0..py {
-                let ov = overlap(v0, v1, r as f64 / py as f64, (r + 1) as f64 / py as f64);
+                let (b0, b1) = (r as f64 / py as f64, (r + 1) as f64 / py as f64);
+                let ov = overlap(v0, v1, b0, b1);
                 if ov == 0.0 {
                     continue;
                 }
+                let vc = 0.5 * (v0.max(b0) + v1.min(b1));
                 for k in 0..px {
-                    let os = overlap(s0, s1, k as f64 / px as f64, (k + 1) as f64 / px as f64);
-                    mass += pdf_uv[r * px + k] * ov * os;
+                    let (a0, a1) = (k as f64 / px as f64, (k + 1) as f64 / px as f64);
+                    let os = overlap(s0, s1, a0, a1);
+                    if os == 0.0 {
+                        continue;
+                    }
+                    mass += pdf_uv(0.5 * (s0.max(a0) + s1.min(a1)), vc) * ov * os;
                 }
             }
             exp[i * np + j] = mass * N as f64;
