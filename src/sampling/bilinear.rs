@@ -15,7 +15,7 @@
 //! `materials`' sky (128 x 64 texels, one bright spot), lit by light
 //! sampling alone (`--direct light`, direct lighting only), the floor's
 //! variance per pixel was 1.5 to 1.7 times Mitsuba 3's with stratified
-//! samplers on both sides (`sobol` against `ldsampler`), though 1.04 to 1.08
+//! samplers on both sides (`sobol` against `ldsampler`), though 1.03 to 1.09
 //! times with independent ones; Mitsuba's environment map samples the
 //! bilinear density exactly (a hierarchical warp). With this density the
 //! floor's ratio is 0.9 to 1.0.
