@@ -115,6 +115,20 @@ fn environment_lookup_matches_mitsuba() {
     eprintln!("largest relative difference from Mitsuba: {worst:e}");
 }
 
+/// Counts of `N` points `draw(u)` of uniform `u` (seed `seed`) in a grid of
+/// `bx x by` bins over the unit square, row-major.
+fn histogram_2d(bx: usize, by: usize, seed: u64, draw: impl Fn(Vec2) -> Vec2) -> Vec<f64> {
+    let mut obs = vec![0.0; bx * by];
+    let mut s = Sampler::new(seed, 0, 0);
+    for _ in 0..N {
+        let p = draw(s.next_2d());
+        let i = ((p.x as f64 * bx as f64) as usize).min(bx - 1);
+        let j = ((p.y as f64 * by as f64) as usize).min(by - 1);
+        obs[j * bx + i] += 1.0;
+    }
+    obs
+}
+
 #[test]
 fn chi2_piecewise_constant_2d() {
     // 12 x 7 cells: row 2 all zero, some zero cells, values spanning 1e3
@@ -133,14 +147,7 @@ fn chi2_piecewise_constant_2d() {
     let total: f64 = f.iter().map(|&v| v as f64).sum();
     // each cell split 3 x 3, so uniformity inside a cell is tested too
     let (bx, by) = (3 * nx, 3 * ny);
-    let mut obs = vec![0.0; bx * by];
-    let mut s = Sampler::new(41, 0, 0);
-    for _ in 0..N {
-        let x = d.sample(s.next_2d());
-        let i = ((x.p.x as f64 * bx as f64) as usize).min(bx - 1);
-        let j = ((x.p.y as f64 * by as f64) as usize).min(by - 1);
-        obs[j * bx + i] += 1.0;
-    }
+    let obs = histogram_2d(bx, by, 41, |u| d.sample(u).p);
     let exp: Vec<f64> = (0..bx * by)
         .map(|k| {
             let (i, j) = (k % bx, k / bx);
@@ -170,14 +177,7 @@ fn chi2_periodic_bilinear_2d() {
     // each patch split 3 x 3; a bilinear density's mass over a rectangle
     // inside one patch is its area times the density at its centre
     let (bx, by) = (3 * nx, 3 * ny);
-    let mut obs = vec![0.0; bx * by];
-    let mut s = Sampler::new(43, 0, 0);
-    for _ in 0..N {
-        let x = d.sample(s.next_2d());
-        let i = ((x.p.x as f64 * bx as f64) as usize).min(bx - 1);
-        let j = ((x.p.y as f64 * by as f64) as usize).min(by - 1);
-        obs[j * bx + i] += 1.0;
-    }
+    let obs = histogram_2d(bx, by, 43, |u| d.sample(u).p);
     let exp: Vec<f64> = (0..bx * by)
         .map(|k| {
             let (i, j) = (k % bx, k / bx);

@@ -73,16 +73,8 @@ impl PiecewiseConstant1D {
     /// # Panics
     /// If `func` is empty: a distribution needs a domain.
     pub fn new(func: &[f32]) -> Self {
-        assert!(
-            !func.is_empty(),
-            "a piecewise-constant function needs a cell"
-        );
-        let func: Vec<f32> = func
-            .iter()
-            .map(|&f| if f.is_finite() && f > 0.0 { f } else { 0.0 })
-            .collect();
-        let weights: Vec<f64> = func.iter().map(|&f| f as f64).collect();
-        Self::with_weights(func, &weights)
+        // every f32 is exact in f64 and back
+        Self::from_f64(&func.iter().map(|&f| f as f64).collect::<Vec<_>>())
     }
 
     /// The density proportional to `weights`, kept in `f64` for the
