@@ -49,14 +49,23 @@ pub struct PeriodicBilinear2D {
     nx: usize,
     /// Patch rows (one fewer than vertex rows).
     ny: usize,
-    /// Vertex values, `ny + 1` rows of `nx + 1`, row 0 first, each row's
-    /// first value repeated at its end (the wrap, so a patch's corners are
-    /// neighbours); finite, `>= 0`.
-    f: Vec<f32>,
+    /// Per patch row `j` and vertex column `i` in `0..=nx` (the last being
+    /// column 0 again, the wrap): the values of vertices `(i, j)` and
+    /// `(i, j + 1)` side by side, so that a patch's four corners are four
+    /// consecutive values, one or two cache lines however large the grid;
+    /// finite, `>= 0`.
+    corners: Vec<[f32; 2]>,
     /// Per vertex row (`nx + 1` entries each): the running sum along the
     /// row of the mean of each patch edge's two vertices, `cum[r][i]` being
     /// the sum over edges `0..i`; `cum[r][nx]` is the row's vertex sum.
     cum: Vec<f64>,
+    /// Per vertex row (`nx + 1` entries each), a guide table as in
+    /// [`PiecewiseConstant1D`]: `guide[r][k]` is the patch whose range of
+    /// `cum[r]` holds the fraction `k / nx` of the row's sum. The
+    /// conditional cumulative table at any `v` in a patch row is a blend of
+    /// its two vertex rows' tables, so its patch for a fraction lies between
+    /// theirs: the two guides bound the search to a patch or a few.
+    guide: Vec<u32>,
     /// Over patch rows, each weighted by its mean over `x`.
     marginal: PiecewiseConstant1D,
     /// `1 /` the integral over the unit square; 0 for all-zero input.
@@ -103,6 +112,49 @@ fn first(n: usize, pred: impl Fn(usize) -> bool) -> usize {
     lo
 }
 
+/// How far the constant density per patch (each patch's value the mean of
+/// its corners) is from the bilinear one over the same vertex values: the
+/// chi-square divergence `int (p_bilinear - p_constant)^2 / p_constant`,
+/// which is the relative variance that light sampling by the constant
+/// density adds to an estimate whose integrand follows the bilinear one.
+/// Per patch, the bilinear function is its mean plus `a (x - 1/2) +
+/// b (y - 1/2) + c (x - 1/2)(y - 1/2)`, whose variance over the patch is
+/// `a^2 / 12 + b^2 / 12 + c^2 / 144`. `values` as for
+/// [`PeriodicBilinear2D::new`]; 0 for all-zero input.
+pub fn constant_patch_divergence(values: &[f32], nx: usize, rows: usize) -> f64 {
+    assert!(nx > 0 && rows >= 2, "a bilinear grid needs a patch");
+    assert_eq!(values.len(), nx * rows, "{nx} x {rows} vertices");
+    let v = |i: usize, r: usize| {
+        let x = values[r * nx + i % nx];
+        if x.is_finite() && x > 0.0 {
+            x as f64
+        } else {
+            0.0
+        }
+    };
+    let (mut sum_mean, mut sum_ratio) = (0.0f64, 0.0f64);
+    for j in 0..rows - 1 {
+        for i in 0..nx {
+            let (p, q, r, t) = (v(i, j), v(i + 1, j), v(i, j + 1), v(i + 1, j + 1));
+            let mean = 0.25 * (p + q + r + t);
+            if mean > 0.0 {
+                let a = 0.5 * ((q - p) + (t - r));
+                let b = 0.5 * ((r - p) + (t - q));
+                let c = p - q - r + t;
+                sum_ratio += (a * a / 12.0 + b * b / 12.0 + c * c / 144.0) / mean;
+                sum_mean += mean;
+            }
+        }
+    }
+    // with p = f / I over patches of equal area, I the mean of the means:
+    // sum over patches of (var / mean) / I, divided by the patch count
+    if sum_mean > 0.0 {
+        sum_ratio / sum_mean
+    } else {
+        0.0
+    }
+}
+
 impl PeriodicBilinear2D {
     /// The density proportional to the bilinear interpolation of `values`,
     /// `nx` per vertex row, `rows` vertex rows (row 0 at `y = 0`, the last at
@@ -113,6 +165,8 @@ impl PeriodicBilinear2D {
     pub fn new(values: &[f32], nx: usize, rows: usize) -> Self {
         assert!(nx > 0 && rows >= 2, "a bilinear grid needs a patch");
         assert_eq!(values.len(), nx * rows, "{nx} x {rows} vertices");
+        assert!(u32::try_from(nx).is_ok(), "{nx} columns: at most 2^32 - 1");
+        // the rows with the wrap column, bad values zeroed
         let mut f = Vec::with_capacity(rows * (nx + 1));
         for row in values.chunks_exact(nx) {
             f.extend(
@@ -121,14 +175,27 @@ impl PeriodicBilinear2D {
                     .map(|&v| if v.is_finite() && v > 0.0 { v } else { 0.0 }),
             );
         }
+        let corners = (0..rows - 1)
+            .flat_map(|j| {
+                let (top, bottom) = (&f[j * (nx + 1)..], &f[(j + 1) * (nx + 1)..]);
+                (0..=nx).map(move |i| [top[i], bottom[i]])
+            })
+            .collect();
         let mut cum = Vec::with_capacity(rows * (nx + 1));
+        let mut guide = Vec::with_capacity(rows * (nx + 1));
         for row in f.chunks_exact(nx + 1) {
+            let start = cum.len();
             let mut acc = 0.0f64;
             cum.push(acc);
             for i in 0..nx {
                 acc += 0.5 * (row[i] as f64 + row[i + 1] as f64);
                 cum.push(acc);
             }
+            let table = &cum[start..];
+            guide.extend((0..=nx).map(|k| {
+                let target = k as f64 / nx as f64 * acc;
+                table[1..].partition_point(|&c| c <= target).min(nx - 1) as u32
+            }));
         }
         let row_sum = |r: usize| cum[r * (nx + 1) + nx];
         // a patch row's mean over x: the mean of its two vertex rows' means
@@ -140,8 +207,9 @@ impl PeriodicBilinear2D {
         PeriodicBilinear2D {
             nx,
             ny: rows - 1,
-            f,
+            corners,
             cum,
+            guide,
             marginal,
             inv_integral: if integral > 0.0 {
                 (1.0 / integral) as f32
@@ -155,12 +223,6 @@ impl PeriodicBilinear2D {
     /// which is sampled uniformly).
     pub fn integral(&self) -> f64 {
         self.marginal.integral()
-    }
-
-    /// The value at vertex `(i, r)`, for `i` up to `nx` (column 0 again).
-    #[inline]
-    fn at(&self, i: usize, r: usize) -> f32 {
-        self.f[r * (self.nx + 1) + i]
     }
 
     /// The patch along an axis of `n` patches holding `t` (clamped onto the
@@ -184,11 +246,9 @@ impl PeriodicBilinear2D {
         }
         let (i, fx) = Self::cell(p.x, self.nx);
         let (j, fy) = Self::cell(p.y, self.ny);
-        // the patch's corners: two pairs of neighbours, a row apart
-        let stride = self.nx + 1;
-        let c = &self.f[j * stride + i..][..stride + 2];
-        let top = (1.0 - fx) * c[0] + fx * c[1];
-        let bottom = (1.0 - fx) * c[stride] + fx * c[stride + 1];
+        let c = &self.corners[j * (self.nx + 1) + i..][..2];
+        let top = (1.0 - fx) * c[0][0] + fx * c[1][0];
+        let bottom = (1.0 - fx) * c[0][1] + fx * c[1][1];
         ((1.0 - fy) * top + fy * bottom) * self.inv_integral
     }
 
@@ -202,27 +262,12 @@ impl PeriodicBilinear2D {
         }
         let nx = self.nx;
         let (j, dv) = self.marginal.locate(u.y);
-        let top = &self.cum[j * (nx + 1)..(j + 1) * (nx + 1)];
-        let bottom = &self.cum[(j + 1) * (nx + 1)..(j + 2) * (nx + 1)];
-        let fy = sample_linear(dv, top[nx], bottom[nx]);
-        // the cumulative integral along the row at fy, up to patch k
-        let blend = |k: usize| (1.0 - fy) * top[k] + fy * bottom[k];
-        let total = blend(nx);
-        let target = (u.x as f64).clamp(0.0, 1.0) * total;
-        // the first patch whose cumulative range passes the target has
-        // positive weight; at u.x = 1 the last such patch
-        let mut i = first(nx, |k| blend(k + 1) > target);
-        if i >= nx {
-            i = first(nx, |k| blend(k + 1) >= total).min(nx - 1);
-        }
-        let (lo, hi) = (blend(i), blend(i + 1));
-        let du = if hi > lo {
-            ((target - lo) / (hi - lo)).clamp(0.0, 1.0)
-        } else {
-            0.5
-        };
-        let edge = |k: usize| (1.0 - fy) * self.at(k, j) as f64 + fy * self.at(k, j + 1) as f64;
-        let fx = sample_linear(du, edge(i), edge(i + 1));
+        let rows = |r: usize| r * (nx + 1)..(r + 1) * (nx + 1);
+        let fy = sample_linear(dv, self.cum[rows(j)][nx], self.cum[rows(j + 1)][nx]);
+        let (i, du) = self.patch_along(j, fy, u.x);
+        let c = &self.corners[j * (nx + 1) + i..][..2];
+        let edge = |c: [f32; 2]| (1.0 - fy) * c[0] as f64 + fy * c[1] as f64;
+        let fx = sample_linear(du, edge(c[0]), edge(c[1]));
         let below_one = |t: f64| {
             let t = t as f32;
             if t >= 1.0 {
@@ -239,6 +284,53 @@ impl PeriodicBilinear2D {
             p,
             pdf: self.pdf(p),
         }
+    }
+
+    /// The patch along patch row `j` at height `fy` in it whose range of
+    /// the conditional cumulative distribution holds the fraction `ux`
+    /// (clamped to `[0, 1]`), a patch of positive weight but for rows whose
+    /// weight at `fy` is zero, and where in that range `ux` falls.
+    #[inline]
+    fn patch_along(&self, j: usize, fy: f64, ux: f32) -> (usize, f64) {
+        let nx = self.nx;
+        let rows = |r: usize| r * (nx + 1)..(r + 1) * (nx + 1);
+        let (top, bottom) = (&self.cum[rows(j)], &self.cum[rows(j + 1)]);
+        // the cumulative integral along the row at fy, up to patch k
+        let blend = |k: usize| (1.0 - fy) * top[k] + fy * bottom[k];
+        let total = blend(nx);
+        let ux = (ux as f64).clamp(0.0, 1.0);
+        let target = ux * total;
+        // The first patch whose cumulative range passes the target has
+        // positive weight. The blend's fraction of its total is a weighted
+        // mean of its two rows' fractions (weights (1 - fy) top[nx] and
+        // fy bottom[nx]), so that patch lies between the rows' own patches
+        // for the fraction ux, which their guides bound; rounding can put
+        // it outside, which the check below catches.
+        let k = ((ux * nx as f64) as usize).min(nx - 1);
+        let (mut lo, mut hi) = (nx - 1, 0);
+        for (r, weight) in [(j, (1.0 - fy) * top[nx]), (j + 1, fy * bottom[nx])] {
+            if weight > 0.0 {
+                let g = &self.guide[rows(r)];
+                lo = lo.min(g[k] as usize);
+                hi = hi.max(g[k + 1] as usize);
+            }
+        }
+        let found = |i: usize| (i == 0 || blend(i) <= target) && blend(i + 1) > target;
+        let mut i = lo + first(hi.saturating_sub(lo) + 1, |d| blend(lo + d + 1) > target);
+        if !(i < nx && found(i)) {
+            i = first(nx, |k| blend(k + 1) > target);
+        }
+        if i >= nx {
+            // ux = 1: the last patch of positive weight
+            i = first(nx, |k| blend(k + 1) >= total).min(nx - 1);
+        }
+        let (lo, hi) = (blend(i), blend(i + 1));
+        let du = if hi > lo {
+            ((target - lo) / (hi - lo)).clamp(0.0, 1.0)
+        } else {
+            0.5
+        };
+        (i, du)
     }
 }
 
@@ -350,6 +442,83 @@ mod tests {
             assert!((x.p.y - 0.75).abs() > 1e-6 || x.pdf == 0.0, "{u:?}: {x:?}");
         }
         assert!(zero <= 4, "{zero} extreme samples at zero density");
+    }
+
+    #[test]
+    fn guided_search_finds_the_patch_a_full_scan_finds() {
+        // a row with long zero runs and a spike, so the two vertex rows'
+        // guides point far apart
+        let nx = 40;
+        let f: Vec<f32> = (0..nx * 3)
+            .map(|k| {
+                let (x, y) = (k % nx, k / nx);
+                match (y, x) {
+                    (0, 3..=6) | (1, 30..=38) => 1.0 + x as f32,
+                    (1, 12) => 400.0,
+                    (2, _) => 0.5,
+                    _ => 0.0,
+                }
+            })
+            .collect();
+        let d = PeriodicBilinear2D::new(&f, nx, 3);
+        let mut s = Sampler::new(9, 0, 0);
+        for n in 0..20_000 {
+            let j = n % 2;
+            let fy = if n % 7 == 0 {
+                (n % 3) as f64 / 2.0
+            } else {
+                s.next_1d() as f64
+            };
+            let ux = if n % 11 == 0 {
+                EXTREMES[n % 5]
+            } else {
+                s.next_1d()
+            };
+            let (i, du) = d.patch_along(j, fy, ux);
+            let (top, bottom) = (&d.cum[j * (nx + 1)..], &d.cum[(j + 1) * (nx + 1)..]);
+            let blend = |k: usize| (1.0 - fy) * top[k] + fy * bottom[k];
+            let target = ux as f64 * blend(nx);
+            // the full scan: the first patch whose upper bound passes the
+            // target, else (ux = 1) the last of positive weight
+            let want = (0..nx)
+                .find(|&k| blend(k + 1) > target)
+                .unwrap_or_else(|| (0..nx).rfind(|&k| blend(k + 1) > blend(k)).unwrap_or(0));
+            assert_eq!(i, want, "row {j}, fy {fy}, ux {ux}");
+            assert!((0.0..=1.0).contains(&du));
+        }
+    }
+
+    #[test]
+    fn constant_patch_divergence_matches_quadrature() {
+        let (f, nx, rows) = lumpy();
+        let d = PeriodicBilinear2D::new(&f, nx, rows);
+        let ny = rows - 1;
+        // the constant density: each patch's mean over the integral
+        let mean = |i: usize, j: usize| {
+            let v = |i: usize, r: usize| f[r * nx + i % nx] as f64;
+            0.25 * (v(i, j) + v(i + 1, j) + v(i, j + 1) + v(i + 1, j + 1)) / d.integral()
+        };
+        // midpoint rule, 64 x 64 points a patch (error ~1e-4 relative)
+        let k = 64;
+        let mut sum = 0.0;
+        for j in 0..ny * k {
+            for i in 0..nx * k {
+                let p = Vec2::new(
+                    ((i as f64 + 0.5) / (nx * k) as f64) as f32,
+                    ((j as f64 + 0.5) / (ny * k) as f64) as f32,
+                );
+                let c = mean(i / k, j / k);
+                if c > 0.0 {
+                    sum += (d.pdf(p) as f64 - c).powi(2) / c;
+                }
+            }
+        }
+        let quad = sum / (nx * ny * k * k) as f64;
+        let exact = constant_patch_divergence(&f, nx, rows);
+        assert!((quad - exact).abs() < 1e-3 * exact, "{quad} vs {exact}");
+        // a constant map's two densities agree
+        assert_eq!(constant_patch_divergence(&[2.0; 12], 4, 3), 0.0);
+        assert_eq!(constant_patch_divergence(&[0.0; 12], 4, 3), 0.0);
     }
 
     #[test]
