@@ -20,7 +20,7 @@ use std::f64::consts::PI;
 use std::path::PathBuf;
 
 /// Chi-square tests in this file, for the Sidak correction.
-const CHI2_TESTS: usize = 8;
+const CHI2_TESTS: usize = 9;
 const N: usize = 1_000_000;
 
 fn data(name: &str) -> PathBuf {
@@ -199,16 +199,40 @@ fn chi2_periodic_bilinear_2d() {
 /// Directions binned over (cos theta, phi), 100 x 200 cells, phi measured
 /// from the map's seam shifted by half a texel (so the bins in u start where
 /// the sampling patches do). Each bin's expected count is the exact integral
-/// of the piecewise-bilinear `pdf_uv` over it: a bin in (cos theta, phi) is a
-/// rectangle in (u, v).
+/// of `pdf_uv` over it, piecewise bilinear or constant (in both cases a
+/// patch's mass over a rectangle inside it is the area times the value at
+/// the rectangle's centre): a bin in (cos theta, phi) is a rectangle in
+/// (u, v).
 #[test]
 fn chi2_environment_directions() {
+    // the bright spot makes the constant density per patch far from the
+    // bilinear one, so this map samples the bilinear density; a smooth
+    // map of many texels keeps the constant one
     let env = lumpy();
+    assert!(env.samples_bilinear_density());
+    chi2_environment(&env, 42, "environment map directions (bilinear)");
+    let smooth = EnvironmentMap::new(
+        map(96, 49, |x, y| {
+            Vec3::new(
+                1.0 + 0.2 * y as f32 / 48.0,
+                0.8,
+                0.6 + 0.01 * (x % 7) as f32,
+            )
+        }),
+        Vec3::ONE,
+    )
+    .unwrap();
+    assert!(!smooth.samples_bilinear_density());
+    chi2_environment(&smooth, 44, "environment map directions (constant)");
+}
+
+/// The chi-square test of `env`'s directions, binned as described above.
+fn chi2_environment(env: &EnvironmentMap, seed: u64, name: &str) {
     let (w, h) = (env.map().width() as usize, env.map().height() as usize);
     let (nc, np) = (100usize, 200usize);
     let shift = 0.5 / w as f64;
     let mut obs = vec![0.0; nc * np];
-    let mut s = Sampler::new(42, 0, 0);
+    let mut s = Sampler::new(seed, 0, 0);
     for _ in 0..N {
         let Some(x) = env.sample(s.next_2d()) else {
             continue;
@@ -266,7 +290,7 @@ fn chi2_environment_directions() {
         (sum / N as f64 - 1.0).abs() < 1e-5,
         "expected counts sum to {sum}"
     );
-    chi2_test(CHI2_TESTS, "environment map directions", &obs, &exp);
+    chi2_test(CHI2_TESTS, name, &obs, &exp);
 }
 
 /// Irradiance at an upward normal (+y) by sampling the environment:
