@@ -368,6 +368,17 @@ pub fn load(path: &Path) -> Result<Scene> {
                         "`camera`: fovy {fov_y} out of range (0, 180) degrees"
                     )));
                 }
+                // as in a TOML scene: the camera within the range every
+                // backend handles (a farther eye made its rays' directions
+                // overflow)
+                for (what, p) in [("eye", origin), ("point looked at", target)] {
+                    if p.abs().max_element() > limits::MAX_COORDINATE as f64 {
+                        return Err(ld.fail(format!(
+                            "`camera`: the {what} {p} is beyond +-{:e}",
+                            limits::MAX_COORDINATE
+                        )));
+                    }
+                }
                 let view = target - origin;
                 if view.length_squared() == 0.0 || view.cross(up).length_squared() == 0.0 {
                     return Err(ld.fail(
