@@ -308,8 +308,16 @@ fn bad_lines_are_one_line_errors_naming_file_and_line() {
         ("size 100 0\n", ":1:", "size"),
         ("camera 0 0 0 0 0 0 0 1 0 45\n", ":1:", "camera"),
         // an eye beyond the coordinate range (found by the fuzz run)
-        ("size 8 8\ncamera 0 2e20 4 0 0 0 0 1 0 45\n", ":2:", "beyond"),
-        ("camera 0 0 4 0 -3e18 0 0 1 0 45\n", ":1:", "point looked at"),
+        (
+            "size 8 8\ncamera 0 2e20 4 0 0 0 0 1 0 45\n",
+            ":2:",
+            "beyond",
+        ),
+        (
+            "camera 0 0 4 0 -3e18 0 0 1 0 45\n",
+            ":1:",
+            "point looked at",
+        ),
         ("rotate 0 0 0 10\n", ":1:", "axis"),
         ("maxdepth 2.5\n", ":1:", "maxdepth"),
         ("brdf blinn\n", ":1:", "phong, ggx"),
