@@ -307,6 +307,9 @@ fn bad_lines_are_one_line_errors_naming_file_and_line() {
         ("diffuse 1 -1 1\n", ":1:", "negative"),
         ("size 100 0\n", ":1:", "size"),
         ("camera 0 0 0 0 0 0 0 1 0 45\n", ":1:", "camera"),
+        // an up vector parallel to the view once scaled (1e300 once made
+        // NaN directions; now only its direction counts)
+        ("camera 0 0 4 0 0 0 0 0 1e300 45\n", ":1:", "undefined"),
         // an eye beyond the coordinate range (found by the fuzz run)
         (
             "size 8 8\ncamera 0 2e20 4 0 0 0 0 1 0 45\n",

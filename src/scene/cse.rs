@@ -361,7 +361,12 @@ pub fn load(path: &Path) -> Result<Scene> {
                 let v = ld.numbers64::<10>(cmd, &args)?;
                 let origin = DVec3::new(v[0], v[1], v[2]);
                 let target = DVec3::new(v[3], v[4], v[5]);
+                // only up's direction matters: scaled to a largest component
+                // of 1, so that no finite value overflows in the checks below
+                // or in f32 (an up of (0, 1, 1e300) made NaN directions)
                 let up = DVec3::new(v[6], v[7], v[8]);
+                let largest = up.abs().max_element();
+                let up = if largest > 0.0 { up / largest } else { up };
                 let fov_y = v[9] as f32;
                 if !(fov_y > 0.0 && fov_y < 180.0) {
                     return Err(ld.fail(format!(
