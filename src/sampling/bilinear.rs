@@ -39,7 +39,7 @@
 //!   may be 0 and the caller rejects it;
 //! - the reported density is `pdf(p)` of the point returned, bit for bit.
 
-use super::distribution::PiecewiseConstant1D;
+use super::distribution::{PiecewiseConstant1D, guide_table};
 use crate::math::Vec2;
 
 /// A piecewise-bilinear density on `[0, 1)^2`, periodic in `x`.
@@ -191,11 +191,7 @@ impl PeriodicBilinear2D {
                 acc += 0.5 * (row[i] as f64 + row[i + 1] as f64);
                 cum.push(acc);
             }
-            let table = &cum[start..];
-            guide.extend((0..=nx).map(|k| {
-                let target = k as f64 / nx as f64 * acc;
-                table[1..].partition_point(|&c| c <= target).min(nx - 1) as u32
-            }));
+            guide.extend(guide_table(&cum[start..]));
         }
         let row_sum = |r: usize| cum[r * (nx + 1) + nx];
         // a patch row's mean over x: the mean of its two vertex rows' means

@@ -116,14 +116,7 @@ impl PiecewiseConstant1D {
                 *c = i as f64 / n;
             }
         }
-        let n = func.len();
-        let total = cdf[n];
-        let guide = (0..=n)
-            .map(|k| {
-                let target = k as f64 / n as f64 * total;
-                cdf[1..].partition_point(|&c| c <= target).min(n - 1) as u32
-            })
-            .collect();
+        let guide = guide_table(&cdf);
         PiecewiseConstant1D {
             func,
             cdf,
@@ -194,6 +187,20 @@ impl PiecewiseConstant1D {
             cell: i,
         }
     }
+}
+
+/// The guide table of the cumulative table `cdf` (`n + 1` entries, `n`
+/// cells): entry `k` of `n + 1` is the cell whose range holds the fraction
+/// `k / n` of the total (see [`PiecewiseConstant1D`]).
+pub(crate) fn guide_table(cdf: &[f64]) -> Vec<u32> {
+    let n = cdf.len() - 1;
+    let total = cdf[n];
+    (0..=n)
+        .map(|k| {
+            let target = k as f64 / n as f64 * total;
+            cdf[1..].partition_point(|&c| c <= target).min(n - 1) as u32
+        })
+        .collect()
 }
 
 /// The cell of `n` (`0 < n < 2^32`) equal cells on `[0, 1)` that holds `x`
