@@ -95,7 +95,8 @@ impl Density {
     #[inline]
     fn sample(&self, u: Vec2) -> Vec2 {
         match self {
-            Density::Bilinear(d) => d.sample(u).p,
+            // the caller recomputes the density at the direction it makes
+            Density::Bilinear(d) => d.sample_point(u),
             Density::Constant(d) => d.sample(u).p,
         }
     }
