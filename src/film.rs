@@ -55,6 +55,21 @@ pub const SUM_SATURATION: f64 = 18_446_744_073_709_551_616.0;
 #[inline]
 pub fn to_fixed(v: f64) -> u128 {
     debug_assert!(v >= 0.0 && v.is_finite(), "fixed point takes finite v >= 0");
+    // below 2^(63 - F) (8.4e6, every radiance but the rarest), `v * 2^F` is
+    // exact (a power of two) and below 2^63, so the conversion to `i64`, one
+    // instruction that truncates, is the floor: the same value as below, for
+    // the per-sample adds of a `materials` render (callgrind, 128 x 64,
+    // 64 spp) took 57 M instructions instead of 84 M
+    const FAST_BELOW: f64 = (1u64 << (63 - FRACTION_BITS)) as f64;
+    if v < FAST_BELOW {
+        return (v * (1u64 << FRACTION_BITS) as f64) as i64 as u128;
+    }
+    to_fixed_from_bits(v)
+}
+
+/// [`to_fixed`] for any finite `v >= 0`, from the bits of `v`.
+#[inline]
+fn to_fixed_from_bits(v: f64) -> u128 {
     let bits = v.to_bits();
     let exp = ((bits >> 52) & 0x7ff) as i32;
     if exp == 0 {
@@ -562,6 +577,30 @@ mod tests {
         assert_eq!(to_fixed(f64::MAX), ADDEND_MAX);
         // 2^24 samples at the most cannot overflow
         assert!(ADDEND_MAX.checked_mul(1 << 24).is_some());
+    }
+
+    #[test]
+    fn fixed_point_fast_path_equals_the_bits() {
+        // every magnitude from 2^-60 to 2^30, with random mantissas, and the
+        // neighbours of the fast path's bound
+        let mut rng = crate::sampler::Sampler::new(5, 0, 0);
+        let bound = (1u64 << (63 - FRACTION_BITS)) as f64;
+        let mut values = vec![0.0, -0.0, bound];
+        let (mut up, mut down) = (bound, bound);
+        for _ in 0..64 {
+            up = f64::from_bits(up.to_bits() + 1);
+            down = f64::from_bits(down.to_bits() - 1);
+            values.extend([up, down]);
+        }
+        for e in -60..=30 {
+            for _ in 0..200 {
+                let m = 1.0 + rng.next_1d() as f64 + rng.next_1d() as f64 * 2f64.powi(-24);
+                values.extend([m * 2f64.powi(e), f64::from((m * 2f64.powi(e)) as f32)]);
+            }
+        }
+        for v in values {
+            assert_eq!(to_fixed(v), to_fixed_from_bits(v.abs()), "{v:e}");
+        }
     }
 
     #[test]
