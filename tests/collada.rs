@@ -400,3 +400,41 @@ fn a_toml_focal_length_must_be_positive() {
         assert!(!e.contains('\n'), "{e}");
     }
 }
+
+#[test]
+fn extreme_camera_transforms_give_a_finite_camera_or_a_one_line_error() {
+    // The course places the camera from the geometry's bounds (vertices
+    // past the coordinate limit left out) along the node's transformed
+    // point (0, 0, -1), normalised: no transform can make it non-finite.
+    // The first loads; the others leave no direction (1e300 - 1e300, or
+    // 1e-30 - 1e-30) and fail on the camera's line.
+    let mut loaded = 0;
+    for m in [
+        "1e30 0 0 0 0 1e30 0 1e30 0 0 1e30 -1e30 0 0 0 1",
+        "1e300 1e300 1e300 1e300 1e300 1e300 1e300 1e300 1e300 1e300 1e300 1e300 0 0 0 1",
+        "1e-30 0 0 0 0 1e-30 0 0 0 0 1e-30 1e-30 0 0 0 1",
+        "0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 1",
+    ] {
+        let nodes = format!(
+            r##"<node id="f"><scale>1e30 1 1e-30</scale>{}</node>
+<node id="c"><matrix>{m}</matrix><instance_camera url="#cam"/></node>"##,
+            with_material("floor", "grey"),
+        );
+        match load(&dae("Y_UP", "", &nodes)) {
+            Ok(s) => {
+                let c = s.camera;
+                assert!(
+                    c.origin.is_finite() && c.target.is_finite() && c.origin != c.target,
+                    "{m}: {c:?}"
+                );
+                assert!(c.fov_y > 0.0 && c.fov_y < 180.0, "{m}: {c:?}");
+                loaded += 1;
+            }
+            Err(e) => assert!(
+                !e.contains('\n') && e.contains("s.dae:5:") && e.contains("view direction"),
+                "{m}: {e}"
+            ),
+        }
+    }
+    assert_eq!(loaded, 1);
+}
