@@ -16,8 +16,8 @@
 //! `f64` by the tests below over every input they sweep: at most 2.6 units
 //! in the last place for `atan2` and 1.3 for `acos`. Each function is a
 //! plain function of its input, so a value computed twice from the same
-//! input is the same bits (what the environment map's sample, `eval` and
-//! `pdf` rely on to agree).
+//! input is the same bits (what the environment map's `eval` and `pdf` of
+//! one direction rely on to agree).
 
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
