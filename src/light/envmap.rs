@@ -563,6 +563,13 @@ mod tests {
         let extremes = us.len();
         us.extend((0..200_000).map(|_| s.next_2d()));
         let (mut rejected, mut stepped) = (0, 0);
+        let scale = env.radiance.max_element()
+            * env
+                .map
+                .texels()
+                .iter()
+                .map(|t| t.max_element())
+                .fold(0.0, f32::max);
         for (k, u) in us.into_iter().enumerate() {
             let Some(x) = env.sample(u) else {
                 // only at the poles, where sin theta rounds to 0: v = 0 and
@@ -583,13 +590,6 @@ mod tests {
             // a constant density steps across a patch edge the rounding
             // crossed
             let (pdf, li) = (env.pdf(x.wi), env.eval(x.wi));
-            let scale = env.radiance.max_element()
-                * env
-                    .map
-                    .texels()
-                    .iter()
-                    .map(|t| t.max_element())
-                    .fold(0.0, f32::max);
             assert!(
                 (x.li - li).abs().max_element() <= 1e-4 * scale,
                 "{u:?}: radiance {} at the point drawn, {li} at {:?}",
@@ -605,8 +605,8 @@ mod tests {
                 stepped += 1;
             }
             // importance: never a direction where the map is black. The
-            // extreme numbers land on patch edges, where the direction's
-            // rounding may read the black row beyond the edge: the radiance
+            // extreme numbers land on patch edges, where rounding may read
+            // the black row beyond the edge: the radiance
             // there is 0 (it is continuous), so that costs nothing.
             if k >= extremes {
                 assert!(
