@@ -36,12 +36,11 @@
 //! bilinear density only where the constant one would add more than 1 %
 //! relative variance ([`BILINEAR_ABOVE`]), computed when the map is built.
 //!
-//! [`EnvironmentMap::sample`] returns the radiance and density of the
-//! direction it produced, recomputed from that direction, so `sample`,
-//! [`EnvironmentMap::eval`] and [`EnvironmentMap::pdf`] agree exactly. (The
-//! direction's rounding moves its map coordinates off the drawn point by a
-//! few ulps; radiance and density are both continuous, so that changes the
-//! estimate by a rounding error at most.)
+//! [`EnvironmentMap::sample`] returns the radiance and density at the point
+//! it drew, not recomputed from the direction it made of it; they equal
+//! [`EnvironmentMap::eval`] and [`EnvironmentMap::pdf`] of that direction up
+//! to the direction's rounding (a few ulps in its map coordinates, more in
+//! `v` near the poles, where `acos` loses precision).
 
 use crate::error::{Error, Result};
 use crate::math::{Vec2, Vec3, luminance, trig};

@@ -251,19 +251,10 @@ impl PeriodicBilinear2D {
     /// The point for `u` in `[0, 1]^2`: `u.y` picks `y` by the marginal
     /// density, `u.x` picks `x` by the conditional density at that `y`.
     pub fn sample(&self, u: Vec2) -> BilinearSample {
-        let p = self.sample_point(u);
-        BilinearSample {
-            p,
-            pdf: self.pdf(p),
-        }
-    }
-
-    /// The point [`PeriodicBilinear2D::sample`] draws, without its density
-    /// (for a caller that computes the density of what it makes of the point).
-    pub fn sample_point(&self, u: Vec2) -> Vec2 {
         if self.inv_integral == 0.0 {
             let below_one = |t: f32| t.clamp(0.0, 1.0 - f32::EPSILON / 2.0);
-            return Vec2::new(below_one(u.x), below_one(u.y));
+            let p = Vec2::new(below_one(u.x), below_one(u.y));
+            return BilinearSample { p, pdf: 1.0 };
         }
         let nx = self.nx;
         let (j, dv) = self.marginal.locate(u.y);
@@ -281,10 +272,14 @@ impl PeriodicBilinear2D {
                 t
             }
         };
-        Vec2::new(
+        let p = Vec2::new(
             below_one((i as f64 + fx) / nx as f64),
             below_one((j as f64 + fy) / self.ny as f64),
-        )
+        );
+        BilinearSample {
+            p,
+            pdf: self.pdf(p),
+        }
     }
 
     /// The patch along patch row `j` at height `fy` in it whose range of
