@@ -23,8 +23,8 @@ mod common;
 use common::{batch_means, chi2_test, sidak_z};
 use embertrace::bsdf::fresnel::{fr_conductor, fr_dielectric};
 use embertrace::bsdf::{
-    Bsdf, BsdfSample, Bxdf, Conductor, Diffuse, Distribution, Glass, Lobe, Microfacet, Mirror,
-    Phong, Plastic,
+    Bsdf, BsdfSample, Bxdf, Conductor, Diffuse, Distribution, Glass, Lobe, Masking, Microfacet,
+    Mirror, Phong, Plastic,
 };
 use embertrace::math::{Vec2, Vec3};
 use embertrace::sampler::Sampler;
@@ -116,7 +116,30 @@ fn zoo() -> Vec<(String, Bsdf)> {
             1.5,
             0.3,
             Distribution::Beckmann,
+            Masking::default(),
             false,
+        )
+        .unwrap()
+        .into(),
+    ));
+    // Mitsuba's separable masking-shadowing, as Mitsuba scenes are read
+    v.push((
+        "conductor ggx 0.5 separable".into(),
+        Conductor {
+            microfacet: Microfacet::new(Distribution::Ggx, 0.5).with_masking(Masking::Separable),
+            ..conductor(Distribution::Ggx, 0.5, GOLD_ETA, GOLD_K)
+        }
+        .into(),
+    ));
+    v.push((
+        "plastic ggx 0.3 separable".into(),
+        Plastic::with_options(
+            Vec3::new(0.8, 0.5, 0.2),
+            1.5,
+            0.3,
+            Distribution::Ggx,
+            Masking::Separable,
+            true,
         )
         .unwrap()
         .into(),
@@ -488,9 +511,16 @@ fn chi2_plastic() {
         let name = format!("plastic alpha {alpha} theta {theta}");
         chi2_reflective(&name, &b, dir(theta, 200.0), 1210 + k as u64);
     }
-    let b: Bsdf = Plastic::with_options(rho, 1.5, 0.2, Distribution::Beckmann, false)
-        .unwrap()
-        .into();
+    let b: Bsdf = Plastic::with_options(
+        rho,
+        1.5,
+        0.2,
+        Distribution::Beckmann,
+        Masking::default(),
+        false,
+    )
+    .unwrap()
+    .into();
     chi2_reflective("plastic beckmann linear", &b, dir(50.0, 10.0), 1213);
 }
 

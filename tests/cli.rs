@@ -422,6 +422,18 @@ fn cases() -> Vec<Case> {
             expect: vec!["s.toml:5", "ggx or beckmann"],
         },
         Case {
+            name: "unknown masking-shadowing form",
+            files: vec![
+                ("m.obj", GOOD_OBJ.into()),
+                (
+                    "s.toml",
+                    toml_with_mesh("material = { type = \"plastic\", masking = \"smith\" }"),
+                ),
+            ],
+            scene: "s.toml",
+            expect: vec!["s.toml:5", "height-correlated or separable"],
+        },
+        Case {
             name: "texture file missing",
             files: vec![
                 ("m.obj", GOOD_OBJ.into()),

@@ -12,7 +12,10 @@
 //!   `G1 = 1 / (1 + Lambda)` and the height-correlated masking-shadowing
 //!   `G2 = 1 / (1 + Lambda(wo) + Lambda(wi))` (ibid., eq. 99). pbrt-v4 uses
 //!   the same (section 9.6.3); its Beckmann `Lambda` is a rational fit, ours
-//!   is the closed form.
+//!   is the closed form. [`Masking::Separable`] takes `G1(wo) G1(wi)`
+//!   instead (never larger: it ignores that a point masked in one direction
+//!   tends to be shadowed in the other), the form of Mitsuba 3's
+//!   `MicrofacetDistribution::G`, which Mitsuba scenes are read with.
 //! - Sampling: visible normals, `D_w(h) = G1(w) max(0, w . h) D(h) / cos(theta_w)`
 //!   (Heitz 2014, eq. 38), for both distributions:
 //!   - GGX: Heitz 2018, "Sampling the GGX Distribution of Visible Normals"
@@ -53,6 +56,42 @@ impl std::str::FromStr for Distribution {
     }
 }
 
+/// How masking and shadowing combine into `G(wo, wi)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Masking {
+    /// Height-correlated Smith `G2 = 1 / (1 + Lambda(wo) + Lambda(wi))`
+    /// (Heitz 2014, eq. 99; pbrt-v4): the default.
+    #[default]
+    HeightCorrelated,
+    /// Separable Smith `G1(wo) G1(wi)` (Heitz 2014, eq. 98): Mitsuba 3's.
+    Separable,
+}
+
+impl Masking {
+    /// The scene-file name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Masking::HeightCorrelated => "height-correlated",
+            Masking::Separable => "separable",
+        }
+    }
+}
+
+impl std::str::FromStr for Masking {
+    type Err = String;
+
+    /// The scene-file names: `height-correlated` and `separable`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "height-correlated" => Ok(Masking::HeightCorrelated),
+            "separable" => Ok(Masking::Separable),
+            _ => Err(format!(
+                "unknown masking `{s}` (expected height-correlated or separable)"
+            )),
+        }
+    }
+}
+
 /// An isotropic microfacet distribution of roughness `alpha` (the RMS slope
 /// for Beckmann, the width for GGX; `alpha = 0` is a perfect mirror).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -61,6 +100,8 @@ pub struct Microfacet {
     pub distribution: Distribution,
     /// Roughness, `>= 0`.
     pub alpha: f32,
+    /// How `G` combines the two directions' masking.
+    pub masking: Masking,
 }
 
 impl Microfacet {
@@ -75,7 +116,18 @@ impl Microfacet {
         Microfacet {
             distribution,
             alpha,
+            masking: Masking::default(),
         }
+    }
+
+    /// The same surface with `G` combined as `masking` says.
+    pub fn with_masking(self, masking: Masking) -> Self {
+        Microfacet { masking, ..self }
+    }
+
+    /// The same distribution and masking at roughness `alpha`.
+    pub fn with_alpha(self, alpha: f32) -> Self {
+        Microfacet { alpha, ..self }
     }
 
     /// Whether this surface is to be treated as perfectly smooth.
@@ -146,10 +198,14 @@ impl Microfacet {
         1.0 / (1.0 + self.lambda(w))
     }
 
-    /// Height-correlated masking-shadowing `G2(wo, wi)`; symmetric, bit for
-    /// bit (the two `Lambda`s are added first).
+    /// Masking-shadowing `G(wo, wi)`, height-correlated or separable
+    /// ([`Masking`]); symmetric, bit for bit (the two `Lambda`s are added
+    /// first, or the two `G1`s multiplied, both commutative).
     pub fn g(&self, wo: Vec3, wi: Vec3) -> f32 {
-        1.0 / (1.0 + (self.lambda(wo) + self.lambda(wi)))
+        match self.masking {
+            Masking::HeightCorrelated => 1.0 / (1.0 + (self.lambda(wo) + self.lambda(wi))),
+            Masking::Separable => self.g1(wo) * self.g1(wi),
+        }
     }
 
     /// Density of visible normals seen from `w` (`w.z > 0`), per steradian of
@@ -428,5 +484,38 @@ mod tests {
                 prev = l;
             }
         }
+    }
+
+    #[test]
+    fn separable_masking_is_the_product_and_never_above_the_correlated() {
+        for dist in [Distribution::Ggx, Distribution::Beckmann] {
+            for alpha in [0.05, 0.3, 1.0] {
+                let corr = Microfacet::new(dist, alpha);
+                let sep = corr.with_masking(Masking::Separable);
+                assert_eq!(sep.with_alpha(0.7).masking, Masking::Separable);
+                for (a, b) in [(5, 10), (40, 70), (80, 85), (0, 60), (89, 1)] {
+                    let wo = spherical((a as f32).to_radians(), 0.4);
+                    let wi = spherical((b as f32).to_radians(), 2.5);
+                    let (gc, gs) = (corr.g(wo, wi), sep.g(wo, wi));
+                    assert_eq!(gs, corr.g1(wo) * corr.g1(wi));
+                    assert_eq!(gs.to_bits(), sep.g(wi, wo).to_bits());
+                    // G1 G1 = 1 / (1 + Lo + Li + Lo Li) <= 1 / (1 + Lo + Li)
+                    assert!(
+                        gs <= gc * (1.0 + 1e-6),
+                        "{dist:?} {alpha} {a} {b}: {gs} > {gc}"
+                    );
+                    // equal where one direction is unmasked
+                    if a == 0 {
+                        assert!((gs - gc).abs() <= 1e-6 * gc);
+                    }
+                }
+            }
+        }
+        assert_eq!("separable".parse::<Masking>(), Ok(Masking::Separable));
+        assert_eq!(
+            Masking::HeightCorrelated.name().parse::<Masking>(),
+            Ok(Masking::HeightCorrelated)
+        );
+        assert!("smith".parse::<Masking>().is_err());
     }
 }

@@ -49,7 +49,7 @@ mod plastic;
 pub use conductor::Conductor;
 pub use diffuse::Diffuse;
 pub use glass::Glass;
-pub use microfacet::{Distribution, Microfacet};
+pub use microfacet::{Distribution, Masking, Microfacet};
 pub use mirror::Mirror;
 pub use phong::{Lobe, Phong};
 pub use plastic::{Plastic, PlasticCoats};

@@ -58,7 +58,7 @@
 //! alpha = 0.1 }` (`alpha = 0` is smooth).
 
 use super::fresnel::{fr_dielectric, reflect};
-use super::microfacet::{Distribution, Microfacet};
+use super::microfacet::{Distribution, Masking, Microfacet};
 use super::mirror::specular_reflection;
 use super::{BsdfSample, Bxdf, choose_lobe, sample_at};
 use crate::math::{Vec2, Vec3};
@@ -136,7 +136,14 @@ impl Plastic {
     /// below [`Microfacet::SMOOTH_ALPHA`] the coat is smooth). An error names
     /// the offending scene key.
     pub fn new(diffuse: Vec3, ior: f32, alpha: f32) -> Result<Self, String> {
-        Self::with_options(diffuse, ior, alpha, Distribution::Ggx, true)
+        Self::with_options(
+            diffuse,
+            ior,
+            alpha,
+            Distribution::Ggx,
+            Masking::default(),
+            true,
+        )
     }
 
     /// [`Plastic::new`] with the coat's microfacet `distribution` and the
@@ -146,6 +153,7 @@ impl Plastic {
         ior: f32,
         alpha: f32,
         distribution: Distribution,
+        masking: Masking,
         nonlinear: bool,
     ) -> Result<Self, String> {
         super::check_unit_rgb("diffuse", diffuse)?;
@@ -153,7 +161,7 @@ impl Plastic {
             return Err(format!("`ior` must be a finite number >= 1, got {ior}"));
         }
         super::check_alpha(alpha)?;
-        let microfacet = Microfacet::new(distribution, alpha);
+        let microfacet = Microfacet::new(distribution, alpha).with_masking(masking);
         let mut p = Plastic {
             diffuse,
             ior,
@@ -401,6 +409,7 @@ impl PlasticCoats {
                 base.ior,
                 alpha,
                 base.microfacet.distribution,
+                base.microfacet.masking,
                 base.nonlinear,
             )
         };
@@ -451,10 +460,7 @@ impl PlasticCoats {
         let t = s - i as f32;
         let (a, b) = (&self.levels[i], &self.levels[i + 1]);
         let mut p = *a;
-        p.microfacet = Microfacet::new(
-            a.microfacet.distribution,
-            alpha.max(Microfacet::SMOOTH_ALPHA),
-        );
+        p.microfacet = a.microfacet.with_alpha(alpha.max(Microfacet::SMOOTH_ALPHA));
         if t > 0.0 {
             p.coat_between = Some((b.coat_albedo, t));
         }
@@ -513,9 +519,16 @@ mod tests {
             Vec3::new(-0.5, 0.2, 0.6).normalize(),
         );
         let lin = |rho: f32| {
-            Plastic::with_options(Vec3::splat(rho), 1.5, 0.0, Distribution::Ggx, false)
-                .unwrap()
-                .eval(wo, wi)
+            Plastic::with_options(
+                Vec3::splat(rho),
+                1.5,
+                0.0,
+                Distribution::Ggx,
+                Masking::default(),
+                false,
+            )
+            .unwrap()
+            .eval(wo, wi)
         };
         let non = |rho: f32| {
             Plastic::new(Vec3::splat(rho), 1.5, 0.0)

@@ -21,7 +21,7 @@
 //! 15 ms), so a textured plastic roughness reads its coat from
 //! [`PlasticCoats`], built at load over the texture's range.
 
-use crate::bsdf::{Bsdf, Microfacet, PlasticCoats};
+use crate::bsdf::{Bsdf, PlasticCoats};
 use crate::math::{Vec2, Vec3};
 use crate::texture::ImageTexture;
 use std::sync::Arc;
@@ -94,7 +94,7 @@ impl Maps {
         }
         if let (Some(t), Bsdf::Conductor(c)) = (&self.alpha, &mut *bsdf) {
             let alpha = t.eval_scalar(uv).max(0.0);
-            c.microfacet = Microfacet::new(c.microfacet.distribution, alpha);
+            c.microfacet = c.microfacet.with_alpha(alpha);
         }
         if let (Some(t), Some(coats), Bsdf::Plastic(p)) =
             (&self.alpha, &self.plastic_coats, &mut *bsdf)

@@ -48,8 +48,8 @@ use super::{
     load_obj_mesh, load_ply_mesh,
 };
 use crate::bsdf::{
-    Bsdf, Conductor, Diffuse, Distribution, Glass, Lobe, Microfacet, Mirror, Phong, Plastic,
-    PlasticCoats,
+    Bsdf, Conductor, Diffuse, Distribution, Glass, Lobe, Masking, Microfacet, Mirror, Phong,
+    Plastic, PlasticCoats,
 };
 use crate::camera::ThinLens;
 use crate::error::{Error, Result};
@@ -254,6 +254,7 @@ struct MaterialToml {
     eta: Option<Rgb>,
     k: Option<Rgb>,
     distribution: Option<String>,
+    masking: Option<String>,
     nonlinear: Option<bool>,
     specular: Option<Param>,
     shininess: Option<f32>,
@@ -278,6 +279,7 @@ impl MaterialToml {
             ("eta", self.eta.is_some()),
             ("k", self.k.is_some()),
             ("distribution", self.distribution.is_some()),
+            ("masking", self.masking.is_some()),
             ("nonlinear", self.nonlinear.is_some()),
             ("specular", self.specular.is_some()),
             ("shininess", self.shininess.is_some()),
@@ -640,13 +642,14 @@ fn keys_of_type(kind: &str) -> Option<&'static [&'static str]> {
         "diffuse" => &["diffuse", "texture"],
         "mirror" => &["reflectance"],
         "glass" => &["ior", "reflectance", "transmittance"],
-        "conductor" => &["alpha", "eta", "k", "distribution"],
+        "conductor" => &["alpha", "eta", "k", "distribution", "masking"],
         "plastic" => &[
             "diffuse",
             "texture",
             "ior",
             "alpha",
             "distribution",
+            "masking",
             "nonlinear",
         ],
         "phong" => &["diffuse", "texture", "specular", "shininess", "roughness"],
@@ -758,6 +761,12 @@ fn apply_material(
                     .map_err(|e| fail(format!("material.distribution: {e}")))?,
                 None => Distribution::Ggx,
             };
+            let masking = match &over.masking {
+                Some(m) => m
+                    .parse::<Masking>()
+                    .map_err(|e| fail(format!("material.masking: {e}")))?,
+                None => Masking::default(),
+            };
             // roughness: one number, or a texture read linear
             let alpha = |textures: &mut Textures,
                          default: f32|
@@ -806,7 +815,7 @@ fn apply_material(
                     Bsdf::Conductor(Conductor {
                         eta: over.eta.map_or(Vec3::ZERO, |c| c.0),
                         k: over.k.map_or(Vec3::ONE, |c| c.0),
-                        microfacet: Microfacet::new(distribution, a),
+                        microfacet: Microfacet::new(distribution, a).with_masking(masking),
                     })
                 }
                 "phong" => {
@@ -836,6 +845,7 @@ fn apply_material(
                         ior,
                         a,
                         distribution,
+                        masking,
                         over.nonlinear.unwrap_or(true),
                     )
                     .map_err(|e| fail(format!("material: {e}")))?;

@@ -28,7 +28,7 @@
 //! whose vertex normals are normalised again on loading, which may move them
 //! by an ulp.
 
-use crate::bsdf::{Bsdf, Distribution, Lobe};
+use crate::bsdf::{Bsdf, Distribution, Lobe, Masking};
 use crate::error::{Error, Result};
 use crate::image::{self, OutputOptions};
 use crate::math::{Vec2, Vec3};
@@ -143,6 +143,7 @@ impl Writer<'_> {
                 keys.push(format!("eta = {}", rgb(c.eta)));
                 keys.push(format!("k = {}", rgb(c.k)));
                 keys.push(distribution(c.microfacet.distribution));
+                keys.extend(masking(c.microfacet.masking));
             }
             Bsdf::Plastic(p) => {
                 keys.push("type = \"plastic\"".to_string());
@@ -150,6 +151,7 @@ impl Writer<'_> {
                 keys.push(format!("ior = {}", num(p.ior())));
                 keys.push(format!("alpha = {}", num(p.microfacet().alpha)));
                 keys.push(distribution(p.microfacet().distribution));
+                keys.extend(masking(p.microfacet().masking));
                 keys.push(format!("nonlinear = {}", p.nonlinear()));
             }
             Bsdf::Phong(p) => {
@@ -577,6 +579,11 @@ fn distribution(d: Distribution) -> String {
         Distribution::Beckmann => "beckmann",
     };
     format!("distribution = \"{name}\"")
+}
+
+/// The `masking = "..."` key, where it is not the default.
+fn masking(m: Masking) -> Option<String> {
+    (m != Masking::default()).then(|| format!("masking = \"{}\"", m.name()))
 }
 
 #[cfg(test)]

@@ -8,6 +8,10 @@
 //! `specular_reflectance` and `specular_transmittance`, and roughconductor
 //! `alpha`. As in Mitsuba, a PNG is decoded from sRGB unless `raw` is true,
 //! whatever the parameter (a normal map without `raw` is decoded too).
+//! Rough conductors and plastics take Mitsuba's separable masking-shadowing
+//! `G1(wo) G1(wi)` ([`Masking::Separable`]; embertrace's own default is the
+//! height-correlated form, up to a few per cent brighter at grazing angles),
+//! so that a Mitsuba scene renders as in Mitsuba.
 //! `normalmap` (its `normalmap` texture) and `bumpmap` (any nested texture,
 //! `scale`) wrap one BSDF, whose material they give the map; their
 //! `use_shadowing_function` is not modelled (a warning unless false) and
@@ -15,7 +19,7 @@
 
 use super::Loader;
 use super::params::{Params, Value};
-use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Plastic};
+use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Masking, Microfacet, Plastic};
 use crate::error::{Error, Result, one_line};
 use crate::math::Vec3;
 use crate::scene::Material;
@@ -348,7 +352,8 @@ impl<'a, 'i> Loader<'a, 'i> {
                     let distribution = self.distribution(&mut p)?;
                     let (alpha, t) = self.alpha_or_texture(&mut p)?;
                     maps.alpha = t;
-                    Microfacet::new(distribution, alpha)
+                    // Mitsuba's G is the separable G1(wo) G1(wi)
+                    Microfacet::new(distribution, alpha).with_masking(Masking::Separable)
                 };
                 p.boolean("sample_visible");
                 Bsdf::Conductor(Conductor { eta, k, microfacet })
@@ -386,8 +391,15 @@ impl<'a, 'i> Loader<'a, 'i> {
                     (self.distribution(&mut p)?, self.alpha(&mut p)?)
                 };
                 Bsdf::Plastic(
-                    Plastic::with_options(diffuse, int / ext, alpha, distribution, nonlinear)
-                        .map_err(|e| self.fail(node, format!("{kind}: {e}")))?,
+                    Plastic::with_options(
+                        diffuse,
+                        int / ext,
+                        alpha,
+                        distribution,
+                        Masking::Separable,
+                        nonlinear,
+                    )
+                    .map_err(|e| self.fail(node, format!("{kind}: {e}")))?,
                 )
             }
             other => {
