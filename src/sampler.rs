@@ -19,12 +19,13 @@
 //!   pixel, dimension). The samples of one pixel are then, in every
 //!   dimension pair, a randomised (0, m, 2)-net when their count is a power
 //!   of two `2^m`, and each point is uniformly distributed, so the estimator
-//!   stays unbiased. The index permutation is nested ([`nested_digits`]), in
-//!   base-4 digits of the render's total sample count rounded up to a power
-//!   of two, `2^L`: the first `2^(L - 2t)` samples of a pixel use one aligned
-//!   block of Sobol indices in every dimension (a net after every other
-//!   power of two), and a render in passes, or one that stops on a time
-//!   limit, draws the same points as one run with the same total count.
+//!   stays unbiased. The index permutation is a nested uniform scramble of
+//!   the index's low `L` bits (Burley 2020), `2^L` the render's total sample
+//!   count rounded up to a power of two: the first `2^k` samples of a pixel
+//!   use one aligned block of Sobol indices in every dimension (a net at
+//!   every power of two), and a render in passes, or one that stops on a
+//!   time limit, draws the same points as one run with the same total
+//!   count.
 //! - `zsobol`: pbrt-v4's `ZSobolSampler` (Ahmed and Wonka 2020): the same
 //!   points, indexed along a Morton curve over the pixels, so neighbouring
 //!   pixels' errors spread as blue noise; the same error per pixel, at a
@@ -151,12 +152,11 @@ impl SampleSpace {
         };
         s.seq = match self.kind {
             SamplerKind::Independent => Seq::Independent,
-            SamplerKind::Sobol => Seq::Sobol(Padded {
-                base: mix64(self.seed ^ mix64(pixel ^ 0x005e_ed0f_50b0)),
-                log2_spp: self.log2_spp,
-                index: sample,
-                dimension: 0,
-            }),
+            SamplerKind::Sobol => Seq::Sobol(Padded::new(
+                mix64(self.seed ^ mix64(pixel ^ 0x005e_ed0f_50b0)),
+                self.log2_spp,
+                sample,
+            )),
             SamplerKind::ZSobol => Seq::ZSobol(ZOrder {
                 seed: mix64(self.seed ^ 0x2_50b0),
                 morton: (morton2(x, y) << self.log2_spp) | sample as u64,
@@ -186,13 +186,17 @@ enum Seq {
 }
 
 /// The padded Sobol state of one sample: a hash of its seed and pixel, its
-/// index, and the dimension that comes next.
+/// index (split at the layout's `log2_spp` bits), and the dimension that
+/// comes next.
 #[derive(Debug, Clone, Copy)]
 struct Padded {
     base: u64,
-    log2_spp: u32,
-    /// The sample's index in its pixel (below `2^32`).
-    index: u32,
+    /// The low `log2_spp` bits of the sample's index, bit-reversed.
+    reversed: u32,
+    /// The bits of the index above `log2_spp` (samples past the layout).
+    high: u32,
+    /// The low `log2_spp` bits set.
+    mask: u32,
     dimension: u32,
 }
 
@@ -313,24 +317,36 @@ fn fold(h: u64) -> u32 {
 }
 
 impl Padded {
-    /// The permuted sample index and the scrambling hash for the next
-    /// dimension (or pair): the index's base-4 digits go through a nested
-    /// permutation chosen by the pixel and the dimension ([`nested_digits`]),
-    /// so every pair of dimensions pairs its points differently, while the
-    /// first `2^(log2_spp - 2t)` samples keep to one aligned block of indices
-    /// (a scrambled net after every other power of two).
+    fn new(base: u64, log2_spp: u32, index: u32) -> Self {
+        let mask = (1u64 << log2_spp).wrapping_sub(1) as u32;
+        Padded {
+            base,
+            reversed: (index & mask).reverse_bits(),
+            high: index & !mask,
+            mask,
+            dimension: 0,
+        }
+    }
+
+    /// The shuffled sample index and the scrambling hash for the next
+    /// dimension (or pair). The index's low `log2_spp` bits are shuffled by
+    /// a nested uniform scramble of their own (Burley, "Practical Hash-based
+    /// Owen Scrambling", JCGT 2020, section 5): the Laine-Karras hash on the
+    /// reversed bits flips each bit by a function of the bits above it,
+    /// under a seed per pixel and dimension. So every aligned block of
+    /// `2^k` indices lands on an aligned block, for every `k`: the first
+    /// `2^k` samples of a pixel are a scrambled net in every dimension pair,
+    /// and two dimensions' shuffles agree on which samples go together at
+    /// every scale. The bits above the layout (samples past it, none in a
+    /// render) are kept.
     #[inline]
     fn next(&mut self, width: u32) -> (u32, u64) {
-        // `base` is a full hash of the seed and pixel already: one
-        // multiply-xorshift round separates the dimensions
         let h = (self.base ^ (self.dimension as u64) << 32).wrapping_mul(0xd6e8_feb8_6659_fd93);
         let hash = h ^ (h >> 32);
         self.dimension += width;
-        let i = self.index as u64;
-        let low = nested_digits(i, self.log2_spp, hash);
-        // samples past the layout (none in a render) keep their high bits
-        let high = i >> self.log2_spp << self.log2_spp;
-        ((high | low) as u32, hash)
+        let seed = (hash.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 32) as u32;
+        let low = lk_hash(self.reversed, seed).reverse_bits() & self.mask;
+        (self.high | low, hash)
     }
 }
 
@@ -378,12 +394,14 @@ fn morton2(x: u32, y: u32) -> u64 {
 /// that ends at a digit boundary (`2^(bits - 2t)` long) onto an aligned
 /// block, so an aligned block of Sobol points stays
 /// a (scrambled) net, and, unlike an unstructured shuffle, two dimensions'
-/// permutations agree on which samples go together at every scale. That
-/// lowered the Cornell box's RMSE by 8 % at 64 spp and 14 % at 256 spp
-/// against a hash-based permutation within dyadic blocks (pbrt-v4's
-/// `PaddedSobolSampler` shuffles that way). This is the digit permutation
-/// of pbrt-v4's `ZSobolSampler` (Ahmed and Wonka 2020), applied here to a
-/// pixel's own sample index as well as to the Morton index.
+/// permutations agree on which samples go together at every scale. This is
+/// the digit permutation of pbrt-v4's `ZSobolSampler` (Ahmed and Wonka
+/// 2020), applied to the Morton index. (The padded sampler once shuffled a
+/// pixel's own indices this way too, which lowered the Cornell box's RMSE
+/// by 8 % at 64 spp and 14 % at 256 spp against a hash-based permutation
+/// within dyadic blocks, as pbrt-v4's `PaddedSobolSampler` shuffles; a
+/// nested scramble of the index's bits, [`Padded::next`], keeps that gain
+/// with fewer instructions.)
 #[inline(always)]
 fn nested_digits(index: u64, bits: u32, salt: u64) -> u64 {
     let odd = bits & 1;
@@ -603,6 +621,44 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn padded_shuffles_are_bijections_that_keep_every_aligned_block() {
+        let shuffle = |base: u64, log2: u32, dimension: u32, i: u32| {
+            let mut p = Padded::new(base, log2, i);
+            p.dimension = dimension;
+            p.next(2).0
+        };
+        for log2 in 0..=10 {
+            for base in [0, 1, 0xdead_beef_1234_5678, u64::MAX] {
+                for dimension in [0, 2, 9] {
+                    let n = 1u32 << log2;
+                    let p: Vec<u32> = (0..n).map(|i| shuffle(base, log2, dimension, i)).collect();
+                    let mut sorted = p.clone();
+                    sorted.sort_unstable();
+                    assert_eq!(sorted, (0..n).collect::<Vec<_>>(), "log2 {log2}");
+                    // every aligned block of every power-of-two size lands on
+                    // an aligned block of that size
+                    for k in 0..=log2 {
+                        let j = 1u32 << k;
+                        for block in p.chunks(j as usize) {
+                            let lo = block.iter().min().unwrap();
+                            assert!(lo % j == 0 && block.iter().all(|x| x / j == lo / j));
+                        }
+                    }
+                    // samples past the layout keep their high bits
+                    for i in [n, 3 * n + 1, u32::MAX] {
+                        let s = shuffle(base, log2, dimension, i);
+                        assert_eq!(s >> log2, i >> log2, "{i} -> {s}");
+                    }
+                }
+            }
+        }
+        // the shuffle depends on the pixel's hash and on the dimension
+        let at = |base, dimension| (0..64).map(move |i| shuffle(base, 6, dimension, i));
+        assert!(at(1, 0).ne(at(2, 0)));
+        assert!(at(1, 0).ne(at(1, 2)));
     }
 
     #[test]
@@ -835,11 +891,13 @@ mod tests {
 
     #[test]
     fn sample_values_are_pinned() {
-        // the values of commit 7f7fa7c: optimisations must keep every bit
-        // (reference images and resumed checkpoints depend on them)
+        // the values of commit 7f7fa7c (`sobol`'s: of the commit that made
+        // its index shuffle a scramble of the index's bits): optimisations
+        // must keep every bit (reference images and resumed checkpoints
+        // depend on them)
         for (kind, digest) in [
             (SamplerKind::Independent, 0x584c_3d45_7171_3ffb),
-            (SamplerKind::Sobol, 0x6d08_2919_6ee5_c4e4),
+            (SamplerKind::Sobol, 0x5b61_5b45_1a44_b52c),
             (SamplerKind::ZSobol, 0xf2c0_b5a8_3833_f882),
         ] {
             assert_eq!(stream_digest(kind), digest, "{kind}");
