@@ -317,6 +317,8 @@ fn fold(h: u64) -> u32 {
 }
 
 impl Padded {
+    /// Sample `index` of the pixel hashed to `base`, in a layout of
+    /// `2^log2_spp` samples.
     fn new(base: u64, log2_spp: u32, index: u32) -> Self {
         let mask = (1u64 << log2_spp).wrapping_sub(1) as u32;
         Padded {
@@ -341,9 +343,13 @@ impl Padded {
     /// render) are kept.
     #[inline]
     fn next(&mut self, width: u32) -> (u32, u64) {
+        // `base` is a full hash of the seed and pixel already: one
+        // multiply-xorshift round separates the dimensions
         let h = (self.base ^ (self.dimension as u64) << 32).wrapping_mul(0xd6e8_feb8_6659_fd93);
         let hash = h ^ (h >> 32);
         self.dimension += width;
+        // the hash's halves scramble the two coordinates; the shuffle's seed
+        // is the high half of one more multiplication
         let seed = (hash.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 32) as u32;
         let low = lk_hash(self.reversed, seed).reverse_bits() & self.mask;
         (self.high | low, hash)

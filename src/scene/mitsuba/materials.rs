@@ -10,7 +10,9 @@
 //! whatever the parameter (a normal map without `raw` is decoded too).
 //! Rough conductors and plastics take Mitsuba's separable masking-shadowing
 //! `G1(wo) G1(wi)` ([`Masking::Separable`]; embertrace's own default is the
-//! height-correlated form, up to a few per cent brighter at grazing angles),
+//! height-correlated form, brighter where both directions are masked, by
+//! `1 + Lo Li / (1 + Lo + Li)` for Smith's `Lambda`s `Lo` and `Li`: 12 %
+//! with GGX at alpha 0.3 and both directions 80 degrees from the normal),
 //! so that a Mitsuba scene renders as in Mitsuba.
 //! `normalmap` (its `normalmap` texture) and `bumpmap` (any nested texture,
 //! `scale`) wrap one BSDF, whose material they give the map; their
