@@ -22,16 +22,9 @@ import sys
 import mitsuba as mi
 import numpy as np
 
+from sampler_variance import read_pfm
+
 mi.set_variant("scalar_rgb")
-
-
-def read_pfm(path):
-    with open(path, "rb") as f:
-        f.readline()
-        w, h = map(int, f.readline().split())
-        scale = float(f.readline())
-        a = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4").reshape(h, w, 3)
-    return a[::-1].astype(np.float64)  # PFM rows run bottom-up
 
 
 def main():

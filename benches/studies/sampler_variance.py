@@ -26,12 +26,13 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 
 
 def read_pfm(path):
+    """An RGB PFM as float64, rows from the top (PFM stores them bottom-up)."""
     with open(path, "rb") as f:
         assert f.readline().strip() == b"PF"
         w, h = map(int, f.readline().split())
         scale = float(f.readline())
         a = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4").reshape(h, w, 3)
-    return a.astype(np.float64)
+    return a[::-1].astype(np.float64)
 
 
 def main():
