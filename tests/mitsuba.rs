@@ -338,6 +338,27 @@ fn ignored_parameters_are_warned_about_by_line() {
     assert!(w[1].contains(":4:") && w[1].contains("mystery"));
 }
 
+/// Without media Mitsuba's volumetric path tracers trace what its `path`
+/// does (and, like ours, carry shadow rays through a mask's holes): read
+/// silently, with the same depths, while a medium stays outside the subset.
+#[test]
+fn volumetric_path_integrators_read_as_path_without_a_warning() {
+    for kind in ["volpath", "prbvolpath"] {
+        let s = load(&scene_with(&format!(
+            "<integrator type=\"{kind}\"><integer name=\"max_depth\" value=\"5\"/><integer name=\"rr_depth\" value=\"2\"/></integrator>\n\
+             <shape type=\"rectangle\"/><emitter type=\"constant\"/>"
+        )))
+        .unwrap();
+        assert!(s.warnings.is_empty(), "{kind}: {:?}", s.warnings);
+        assert_eq!((s.render.max_depth, s.render.rr_depth), (4, 2), "{kind}");
+    }
+    let e = load(&scene_with(
+        "<integrator type=\"volpath\"/>\n<medium type=\"homogeneous\" id=\"fog\"/>",
+    ))
+    .unwrap_err();
+    assert!(e.contains(":3:") && e.contains("medium"), "{e}");
+}
+
 #[test]
 fn defaults_refs_and_units_follow_mitsuba() {
     let s = load(&scene_with(
