@@ -52,8 +52,8 @@
 //! microfacet model's energy loss (and the sum's own 1.5 % shortfall), so
 //! it is smaller: with reciprocity's value a Beckmann coat at alpha 0.15
 //! rendered 4.8 % brighter in red than Mitsuba's `roughplastic`, with this
-//! one 0.6 % (`benches/studies/roughplastic_gap.py`). A rough coat's build
-//! then integrates 64 more directional albedos (another 15 ms or so).
+//! one 0.6 % (`benches/studies/roughplastic_gap.py`). A linear rough coat's
+//! build then integrates 64 more directional albedos, as many as its table.
 //!
 //! The coat uses GGX unless [`Plastic::with_options`] picks Beckmann (as
 //! Mitsuba's `roughplastic` does by default). Build a `Plastic` once per
