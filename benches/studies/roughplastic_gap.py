@@ -18,12 +18,10 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
-LLVM = "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1"
-if "DRJIT_LIBLLVM_PATH" not in os.environ and os.path.exists(LLVM):
-    os.environ["DRJIT_LIBLLVM_PATH"] = LLVM
-import mitsuba as mi  # noqa: E402
-
+sys.path.insert(0, os.path.join(ROOT, "benches", "race"))
 sys.path.insert(0, HERE)
+# the race's module points Dr.Jit at LLVM 19 before it loads Mitsuba
+from race import mi  # noqa: E402
 from sampler_variance import read_pfm  # noqa: E402
 
 SCENE = """<scene version="3.0.0">
