@@ -173,6 +173,7 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         point_lights,
         spot_lights,
         directional_lights,
+        panel_lights,
         camera,
         // where render space sits in the world changes no pixel
         world_origin: _,
@@ -211,6 +212,9 @@ pub fn scene_hash(scene: &Scene) -> u64 {
     // without spot lights is what it was before they existed
     if !spot_lights.is_empty() {
         let _ = write!(h, "{spot_lights:?}");
+    }
+    if !panel_lights.is_empty() {
+        let _ = write!(h, "{panel_lights:?}");
     }
     // instances: the prototypes' bits, then each placement's (the shading
     // data follows from the geometry and the materials above); nothing for

@@ -16,7 +16,7 @@
 //! imports this module, never the other way round.
 
 use crate::bsdf::Bxdf;
-use crate::scene::{AlphaMask, Scene};
+use crate::scene::{AlphaMask, EmissionRole, Scene};
 use crate::settings::{IntegratorSettings, LIGHT_BVH_FROM, LightSampler};
 use std::fmt::Write;
 use std::str::FromStr;
@@ -32,7 +32,8 @@ pub struct Kernel {
     /// Material dispatch (mirror, glass, conductor, plastic) and textures;
     /// off: every surface is a Lambertian with a per-material albedo.
     pub materials: bool,
-    /// Delta lights or delta BSDF lobes; off: no delta checks, every sample
+    /// Delta lights, panel lights (found by light sampling alone, like
+    /// delta lights) or delta BSDF lobes; off: no delta checks, every sample
     /// has a density and MIS applies to all of them.
     pub delta: bool,
     /// Environment lighting; off: an escaping ray returns black at once.
@@ -108,7 +109,7 @@ impl Kernel {
 
 /// The effect names, in the order `plan` lists them. These names are fixed:
 /// scripts read them from `plan --json` and from the render report.
-pub const EFFECTS: [&str; 22] = [
+pub const EFFECTS: [&str; 23] = [
     "diffuse",
     "mirror",
     "glass",
@@ -134,6 +135,7 @@ pub const EFFECTS: [&str; 22] = [
     "normal_map",
     "bump_map",
     "alpha_mask",
+    "emitter_roles",
 ];
 
 /// Which kernel to run (`--plan`).
@@ -183,14 +185,16 @@ pub struct Plan {
 }
 
 /// The lights of `scene` that are not at infinity: emissive primitives
-/// (each triangle of an emissive quad counts), point and spot lights. What
-/// `--light-sampler auto` counts ([`crate::settings::LightSampler`]).
+/// that light sampling picks (each triangle of an emissive quad counts;
+/// [`crate::scene::Material::is_light`]), point, spot and panel lights.
+/// What `--light-sampler auto` counts ([`crate::settings::LightSampler`]).
 pub fn finite_light_count(scene: &Scene) -> usize {
     (0..scene.primitive_count() as u32)
-        .filter(|&p| scene.material(p).emission.max_element() > 0.0)
+        .filter(|&p| scene.material(p).is_light())
         .count()
         + scene.point_lights.len()
         + scene.spot_lights.len()
+        + scene.panel_lights.len()
 }
 
 /// Up to three names, then how many more.
@@ -471,6 +475,21 @@ impl Plan {
             "surfaces with an alpha mask",
             "a stochastic opacity test on candidate hits inside the traversal (Embree filter functions, the Rust backends' filtered leaves), queries a ray at a time (scene/alpha.rs, accel)",
         );
+        let mut roles: Vec<String> = (0..scene.panel_lights.len())
+            .map(|i| format!("panel light {i} (sampled only, no surface)"))
+            .collect();
+        roles.extend(
+            used_materials
+                .iter()
+                .filter(|m| m.role == EmissionRole::SeenOnly && m.emission.max_element() > 0.0)
+                .map(|m| format!("`{}` (emission seen only)", m.name)),
+        );
+        add(
+            "emitter_roles",
+            roles,
+            "emitters with a role other than an area light's",
+            "panel lights sampled with MIS weight 1 and never hit (light/panel.rs); seen-only emission counted on camera rays and after delta bounces alone (integrator/path.rs)",
+        );
         let finite_lights = finite_light_count(scene);
         let bvh = settings.light_sampler.picks_bvh(finite_lights);
         if let Some(e) = effects.iter_mut().find(|e| e.name == "many_lights") {
@@ -501,7 +520,8 @@ impl Plan {
             delta: !delta_bsdfs.is_empty()
                 || on("point_light")
                 || on("spot_light")
-                || on("directional_light"),
+                || on("directional_light")
+                || !scene.panel_lights.is_empty(),
             environment: on("environment") || on("environment_map"),
             emitters: on("area_light"),
             shapes: on("sphere")

@@ -127,7 +127,7 @@ fn chi2_chosen_lights_follow_the_pmf_and_mis_sees_the_same_pmf() {
                 continue;
             }
             if let Some(ls) = lights.sample(&scene, &from, u, s.next_2d()) {
-                if !ls.delta && ls.shadow.t_max.is_finite() {
+                if !ls.unreachable && ls.shadow.t_max.is_finite() {
                     // the point sampled, unless another emitter hides it
                     let end = ls.shadow.o + ls.shadow.t_max * ls.shadow.d;
                     let found = hit_emitter(&scene, acc.as_ref(), &from, ls.wi)

@@ -408,7 +408,7 @@ fn chi2_emissive_sphere_cone() {
                 .expect("a sample");
             // on the sphere, facing the point
             let to = from.p + ls.wi * ls.shadow.t_max;
-            assert!(ls.wi.dot(-Vec3::Z) > 0.0 && !ls.delta);
+            assert!(ls.wi.dot(-Vec3::Z) > 0.0 && !ls.unreachable);
             // 1 - cos from the transverse components: exact for narrow cones
             let w = ls.wi.as_dvec3();
             let one_minus_cos = (w.x * w.x + w.y * w.y) / (1.0 - w.z);
@@ -472,7 +472,7 @@ radiance = 0.05
         let Some(ls) = lights.sample(&scene, &from, s.next_1d(), s.next_2d()) else {
             continue;
         };
-        let kind = if ls.delta {
+        let kind = if ls.unreachable {
             if ls.shadow.t_max.is_finite() && ls.wi.y > 0.99 && ls.shadow.t_max < 7.0 {
                 1
             } else {

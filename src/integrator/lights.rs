@@ -1,6 +1,7 @@
 //! The lights of one scene as the estimator samples them (pbrt-v4's
 //! `PowerLightSampler`, section 12.6.3): the emissive triangles, quads and
-//! spheres gathered from the scene as area lights, then the point, spot and
+//! spheres gathered from the scene as area lights (the materials with
+//! [`crate::scene::EmissionRole::Light`]), then the point, spot, panel and
 //! directional lights, the uniform environment and the environment map, one
 //! chosen in proportion to its power with an alias table, and a point on it
 //! by the rules of [`crate::light`]; or, for scenes of many lights, one
@@ -11,8 +12,8 @@
 //! of the scene, not with the light sources the scene holds.
 
 use crate::light::{
-    AreaLight, DirectionalLight, Emitter, EnvironmentMap, LightSample, PointLight, Quad, SpotLight,
-    sphere_cone,
+    AreaLight, DirectionalLight, Emitter, EnvironmentMap, LightSample, PanelLight, PointLight,
+    Quad, SpotLight, sphere_cone,
 };
 use crate::math::{SurfacePoint, Vec2, Vec3, luminance_f64, spawn_ray, spawn_ray_to};
 use crate::sampling::{
@@ -27,7 +28,8 @@ use super::light_bvh::{LightBounds, LightBvh};
 /// All lights of a scene with the power-proportional selection distribution.
 ///
 /// Selection items, in order: the area lights, the point lights, the spot
-/// lights, the directional lights, the uniform environment, the environment map.
+/// lights, the panel lights, the directional lights, the uniform environment,
+/// the environment map.
 #[derive(Debug, Clone)]
 pub struct Lights {
     area: Vec<AreaLight>,
@@ -40,6 +42,7 @@ pub struct Lights {
     instanced_lights: Vec<(u32, u32)>,
     points: Vec<PointLight>,
     spots: Vec<SpotLight>,
+    panels: Vec<PanelLight>,
     directionals: Vec<DirectionalLight>,
     environment: Option<Vec3>,
     environment_map: Option<EnvironmentMap>,
@@ -95,7 +98,7 @@ impl Lights {
         let inst = &scene.instances;
         // the emitting instanced triangles: every triangle of a placement
         // with an emitting override, or those of its prototype that emit
-        let emits = |m: u32| scene.materials[m as usize].emission.max_element() > 0.0;
+        let emits = |m: u32| scene.materials[m as usize].is_light();
         let mut instanced = inst.placements.iter().enumerate().flat_map(|(k, p)| {
             let n = inst.prototypes[p.prototype as usize].indices.len() as u32;
             (0..n)
@@ -111,7 +114,7 @@ impl Lights {
                 }
             }
             let m = scene.material(prim);
-            if m.emission.max_element() <= 0.0 {
+            if !m.is_light() {
                 prim += 1;
                 continue;
             }
@@ -176,6 +179,7 @@ impl Lights {
         };
         weights.extend(scene.point_lights.iter().map(|l| l.power()));
         weights.extend(scene.spot_lights.iter().map(|l| l.power()));
+        weights.extend(scene.panel_lights.iter().map(|l| l.power()));
         weights.extend(scene.directional_lights.iter().map(|l| l.power(r)));
         if let Some(env) = scene.environment {
             let r = r as f64;
@@ -194,6 +198,7 @@ impl Lights {
             bvh,
             points: scene.point_lights.clone(),
             spots: scene.spot_lights.clone(),
+            panels: scene.panel_lights.clone(),
             directionals: scene.directional_lights.clone(),
             environment: scene.environment,
             environment_map: scene.environment_map.clone(),
@@ -256,7 +261,7 @@ impl Lights {
 
     /// Probability with which [`Lights::sample`] from `from` chooses each
     /// light, by selection index (area lights, point, spot and directional
-    /// lights, the environment, the map), for tests and tools.
+    /// lights, panel lights, the environment, the map), for tests and tools.
     pub fn selection_pmfs(&self, from: &SurfacePoint) -> Vec<f32> {
         (0..self.environment_map_index() + usize::from(self.environment_map.is_some()))
             .map(|i| self.pmf(from, i))
@@ -276,10 +281,14 @@ impl Lights {
         }
     }
 
-    /// Whether some light has a delta distribution (point, spot,
-    /// directional).
-    pub fn has_delta(&self) -> bool {
-        !self.points.is_empty() || !self.spots.is_empty() || !self.directionals.is_empty()
+    /// Whether some light can be found by light sampling alone
+    /// ([`LightSample::unreachable`]): one with a delta distribution (point,
+    /// spot, directional), or a panel light.
+    pub fn has_unreachable(&self) -> bool {
+        !self.points.is_empty()
+            || !self.spots.is_empty()
+            || !self.panels.is_empty()
+            || !self.directionals.is_empty()
     }
 
     /// Whether an escaping ray sees any radiance.
@@ -289,7 +298,11 @@ impl Lights {
 
     /// Selection index of the uniform environment.
     fn environment_index(&self) -> usize {
-        self.area.len() + self.points.len() + self.spots.len() + self.directionals.len()
+        self.area.len()
+            + self.points.len()
+            + self.spots.len()
+            + self.panels.len()
+            + self.directionals.len()
     }
 
     /// Selection index of the environment map.
@@ -333,19 +346,29 @@ impl Lights {
         }
         i -= self.area.len();
         let (n_points, n_spots) = (self.points.len(), self.spots.len());
+        let n_finite = n_points + n_spots + self.panels.len();
         let delta = if i < n_points {
             self.points[i].sample_li(from)?
         } else if i < n_points + n_spots {
             self.spots[i - n_points].sample_li(from)?
-        } else if i < n_points + n_spots + self.directionals.len() {
-            self.directionals[i - n_points - n_spots].sample_li(from)
+        } else if i < n_finite {
+            let s = self.panels[i - n_points - n_spots].sample_li(from, u)?;
+            return Some(LightSample {
+                wi: s.wi,
+                li: s.li,
+                pdf: chosen.pmf * s.pdf,
+                unreachable: true,
+                shadow: spawn_ray_to(from, &s.to),
+            });
+        } else if i < n_finite + self.directionals.len() {
+            self.directionals[i - n_finite].sample_li(from)
         } else if chosen.index == self.environment_index() && self.environment.is_some() {
             let wi = square_to_uniform_sphere(u);
             return Some(LightSample {
                 wi,
                 li: self.environment.unwrap_or(Vec3::ZERO),
                 pdf: chosen.pmf * square_to_uniform_sphere_pdf(wi),
-                delta: false,
+                unreachable: false,
                 shadow: spawn_ray(from, wi),
             });
         } else {
@@ -355,7 +378,7 @@ impl Lights {
                 wi: s.wi,
                 li: s.li,
                 pdf: chosen.pmf * s.pdf,
-                delta: false,
+                unreachable: false,
                 shadow: spawn_ray(from, s.wi),
             });
         };
@@ -363,7 +386,7 @@ impl Lights {
             wi: delta.wi,
             li: delta.li,
             pdf: chosen.pmf * delta.pdf,
-            delta: true,
+            unreachable: true,
             shadow: delta.shadow,
         })
     }
@@ -451,7 +474,7 @@ impl Lights {
             wi,
             li,
             pdf,
-            delta: false,
+            unreachable: false,
             shadow: spawn_ray_to(from, &to),
         })
     }
@@ -526,7 +549,7 @@ impl Lights {
 }
 
 /// The light BVH over `scene`'s lights: `area` (its area lights, first in
-/// the selection order) and the point and spot lights in the tree, the
+/// the selection order) and the point, spot and panel lights in the tree, the
 /// lights at infinity beside it; `powers` are every selection item's
 /// powers, in order.
 fn build_bvh(scene: &Scene, area: &[AreaLight], powers: &[f64]) -> LightBvh {
@@ -541,7 +564,8 @@ fn build_bvh(scene: &Scene, area: &[AreaLight], powers: &[f64]) -> LightBvh {
     for (k, s) in scene.spot_lights.iter().enumerate() {
         phi[n_area + n_points + k] = 4.0 * PI_F64 * luminance_f64(s.intensity).max(0.0);
     }
-    let phi = selection_weights(&phi[..n_area + n_points + n_spots]);
+    let n_finite = n_area + n_points + n_spots + scene.panel_lights.len();
+    let phi = selection_weights(&phi[..n_finite]);
     let mut items: Vec<(u32, LightBounds)> = Vec::with_capacity(phi.len());
     for (k, light) in area.iter().enumerate() {
         let corners: Vec<Vec3> = match light.shape {
@@ -609,7 +633,27 @@ fn build_bvh(scene: &Scene, area: &[AreaLight], powers: &[f64]) -> LightBvh {
             },
         ));
     }
-    let first_infinite = n_area + n_points + n_spots;
+    for (j, l) in scene.panel_lights.iter().enumerate() {
+        let k = n_area + n_points + n_spots + j;
+        let c = l.corners();
+        let (min, max) = (
+            c[0].min(c[1]).min(c[2].min(c[3])),
+            c[0].max(c[1]).max(c[2].max(c[3])),
+        );
+        items.push((
+            k as u32,
+            LightBounds {
+                min,
+                max,
+                w: l.facing,
+                phi: phi[k],
+                cos_theta_o: 1.0,
+                cos_theta_e: 0.0,
+                two_sided: false,
+            },
+        ));
+    }
+    let first_infinite = n_finite;
     let infinite: Vec<u32> = (first_infinite..powers.len())
         .filter(|&i| powers[i].is_finite() && powers[i] > 0.0)
         .map(|i| i as u32)

@@ -87,6 +87,11 @@ pub struct PathTracer<'a> {
     /// its material up for one, so scenes without maps pay a branch only in
     /// the `shapes` kernels).
     normal_maps: bool,
+    /// Some emitting material is [`crate::scene::EmissionRole::SeenOnly`]
+    /// (checked before a hit found by a non-delta bounce looks its material
+    /// up for its role, so other scenes pay one predictable branch where a
+    /// BSDF sample finds emission).
+    seen_only: bool,
     kernel: Kernel,
     trace_fn: TraceFn<'a>,
 }
@@ -165,6 +170,7 @@ impl<'a> PathTracer<'a> {
                 .map(|m| m.albedo().unwrap_or(Vec3::ZERO))
                 .collect(),
             normal_maps: scene.materials.iter().any(|m| m.maps.perturbs_normal()),
+            seen_only: scene.seen_only_emitters(),
             kernel,
             trace_fn: select_kernel(kernel),
         }

@@ -26,6 +26,7 @@ use crate::bsdf::{Bsdf, Bxdf, Diffuse, Phong};
 use crate::math::{Frame, Ray, SurfacePoint, Vec2, Vec3, gamma, spawn_ray};
 use crate::sampler::Sampler;
 use crate::sampling::power_heuristic;
+use crate::scene::EmissionRole;
 use crate::settings::{DirectStrategy, Roulette};
 
 /// Paths traced together: a 4 x 4 block of pixels, the width of Embree's
@@ -328,6 +329,16 @@ impl<'a> PathTracer<'a> {
             let wi = lane.ray.d;
             let (le, light_pdf) = match &its {
                 None if ENVIRONMENT => self.lights.environment_and_pdf(wi),
+                // emission seen only: not after a non-delta bounce, nor
+                // past the last bounce (EmissionRole::SeenOnly)
+                Some(n)
+                    if EMITTERS
+                        && self.seen_only
+                        && (!prev.delta || lane.depth >= self.settings.max_depth)
+                        && self.scene.material(n.prim).role == EmissionRole::SeenOnly =>
+                {
+                    (Vec3::ZERO, 0.0)
+                }
                 Some(n) if EMITTERS => (
                     self.emitted(n),
                     // the density light sampling had, from where it sampled
@@ -427,8 +438,9 @@ impl<'a> PathTracer<'a> {
         let direct = self.settings.direct;
         let use_light = direct != DirectStrategy::Bsdf;
         let mis = direct == DirectStrategy::Mis;
-        // Delta lights can only be light-sampled, whatever the strategy.
-        let sample_lights = use_light || (DELTA && self.lights.has_delta());
+        // Delta and panel lights can only be light-sampled, whatever the
+        // strategy.
+        let sample_lights = use_light || (DELTA && self.lights.has_unreachable());
         if !sample_lights || self.lights.is_empty() {
             return;
         }
@@ -463,7 +475,7 @@ impl<'a> PathTracer<'a> {
                 let Some(ls) = self.lights.sample(self.scene, from, u_sel, u) else {
                     continue;
                 };
-                let delta_light = DELTA && ls.delta;
+                let delta_light = DELTA && ls.unreachable;
                 if !use_light && !delta_light {
                     continue;
                 }

@@ -1,9 +1,9 @@
 //! Light sources and their sampling: emissive triangles and spheres (area
-//! lights), point, spot and directional lights, the uniform environment and the
-//! environment map. One light is chosen in proportion to its power
+//! lights), point, spot, panel and directional lights, the uniform
+//! environment and the environment map. One light is chosen in proportion to its power
 //! (luminance of radiance x area x pi, twice that for two-sided emitters;
 //! `4 pi I` for a point light; `I` times the falloff's solid angle for a
-//! spot light ([`spot`]); `E pi r^2` for a directional light and
+//! spot light ([`spot`]); `L A pi` for a panel light; `E pi r^2` for a directional light and
 //! `pi^2 r^2 L` for the environment, `r` the scene's bounding radius;
 //! pbrt-v4's `PowerLightSampler`, section 12.6.3, with an alias table), then
 //! a point on it: uniform by area on a triangle, converted to solid angle by
@@ -12,7 +12,8 @@
 //! triangles, or for a rectangle that looks large, uniform in the solid
 //! angle it subtends ([`Quad`], [`rectangle`]); uniform in the subtended
 //! cone on a sphere seen from
-//! outside; a uniform direction for the uniform environment; the map's own
+//! outside; uniform by area on a panel light, which is no surface
+//! ([`panel`]); a uniform direction for the uniform environment; the map's own
 //! distribution for the environment map ([`envmap`]). Lights with zero power
 //! get probability zero. Powers are computed in `f64` and scaled so that the
 //! largest is 1 before they become the selection table's `f32` weights: a
@@ -25,12 +26,14 @@
 
 pub mod directional;
 pub mod envmap;
+pub mod panel;
 pub mod point;
 pub mod rectangle;
 pub mod spot;
 
 pub use directional::DirectionalLight;
 pub use envmap::{EnvironmentMap, EnvironmentSample};
+pub use panel::PanelLight;
 pub use point::PointLight;
 pub use spot::SpotLight;
 
@@ -213,9 +216,11 @@ pub struct LightSample {
     /// Solid-angle density of `wi`, including the choice of light; for a
     /// delta light, the probability of choosing it. Always `> 0`.
     pub pdf: f32,
-    /// The light is a point or directional light: no BSDF sample can find it,
-    /// so the estimator gives the sample MIS weight 1.
-    pub delta: bool,
+    /// No BSDF sample can find the light: a delta light (point, spot,
+    /// directional), or a panel light, which is no surface ([`panel`]). The
+    /// estimator gives the sample MIS weight 1 and takes it whatever the
+    /// direct-lighting strategy.
+    pub unreachable: bool,
     /// The shadow ray to test.
     pub shadow: Ray,
 }

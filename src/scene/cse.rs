@@ -49,7 +49,7 @@
 //! out of range, a `popTransform` with nothing pushed) are errors naming the
 //! file and line.
 
-use super::{Material, MeshData, Scene, SceneBuilder, WorldCamera};
+use super::{EmissionRole, Material, MeshData, Scene, SceneBuilder, WorldCamera};
 use crate::bsdf::{Bsdf, Diffuse, Lobe, Microfacet, Phong};
 use crate::error::{Error, Result};
 use crate::light::{DirectionalLight, PointLight};
@@ -718,6 +718,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             emission,
             // the courses add emission whichever side is seen
             two_sided: emission != Vec3::ZERO,
+            role: EmissionRole::Light,
             maps: Default::default(),
             alpha_mask: None,
         });
@@ -766,6 +767,7 @@ pub fn load(path: &Path) -> Result<Scene> {
                 texture: None,
                 emission: *radiance,
                 two_sided: false,
+                role: EmissionRole::Light,
                 maps: Default::default(),
                 alpha_mask: None,
             });

@@ -30,7 +30,7 @@ use crate::accel::Hit;
 use crate::bsdf::{Bsdf, Diffuse};
 use crate::camera::{Camera, CameraDesc, ThinLens};
 use crate::error::{Error, Result};
-use crate::light::{DirectionalLight, EnvironmentMap, PointLight, SpotLight};
+use crate::light::{DirectionalLight, EnvironmentMap, PanelLight, PointLight, SpotLight};
 use crate::math::{DVec3, Ray, SurfacePoint, Vec2, Vec3, trig};
 use crate::settings::RenderDefaults;
 use crate::shape::Sphere;
@@ -47,6 +47,28 @@ pub use maps::{BumpMap, Maps};
 pub use mesh::{MeshData, Transform};
 pub use obj::load_obj_mesh;
 pub use ply::{MAX_POLYGON, load_ply_mesh};
+
+/// What the estimator does with a material's emission. Every scene format
+/// gives [`EmissionRole::Light`] except where the file's own renderer means
+/// otherwise (the CS184 course's `.dae` scenes, [`collada`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum EmissionRole {
+    /// An area light: light sampling picks it, BSDF samples find it, and
+    /// multiple importance sampling weighs the two.
+    #[default]
+    Light,
+    /// Seen, never sampled: the emission counts where a camera ray finds
+    /// it, or a delta bounce (mirror, glass) that is not the path's last
+    /// (`max_depth`), and nowhere else. It is not among the lights, and a
+    /// non-delta bounce that finds it adds nothing, since the light it
+    /// stands for lights the scene otherwise. This is the CS184 course's
+    /// emissive `light` mesh, whose light comes from its CGL area light
+    /// ([`crate::light::PanelLight`]): the course's `EmissionBSDF` is seen
+    /// by `zero_bounce_radiance`, which the course adds for camera rays and,
+    /// in `at_least_one_bounce_radiance`, for the hit of a delta bounce
+    /// that the ray's depth lets go on; its mesh lights are never sampled.
+    SeenOnly,
+}
 
 /// A surface material: a BSDF, an optional albedo texture, and emission.
 #[derive(Debug, Clone, PartialEq)]
@@ -66,6 +88,8 @@ pub struct Material {
     /// Emit from both sides (otherwise only from the front, where the
     /// triangle winds counter-clockwise or the sphere's normal points out).
     pub two_sided: bool,
+    /// What the estimator does with the emission ([`EmissionRole`]).
+    pub role: EmissionRole,
     /// Textures on the other parameters, and a normal or bump map.
     pub maps: Maps,
     /// Cut-outs: the surface's opacity (see [`AlphaMask`]); `None` is
@@ -74,6 +98,12 @@ pub struct Material {
 }
 
 impl Material {
+    /// Whether the material is an area light, one that light sampling
+    /// picks: it emits, with [`EmissionRole::Light`].
+    pub fn is_light(&self) -> bool {
+        self.emission.max_element() > 0.0 && self.role == EmissionRole::Light
+    }
+
     /// A Lambertian material named `name` with `albedo`.
     pub fn diffuse(name: &str, albedo: Vec3) -> Self {
         Material {
@@ -130,6 +160,7 @@ impl Default for Material {
             texture: None,
             emission: Vec3::ZERO,
             two_sided: false,
+            role: EmissionRole::Light,
             maps: Maps::default(),
             alpha_mask: None,
         }
@@ -209,6 +240,9 @@ pub struct Scene {
     pub spot_lights: Vec<SpotLight>,
     /// Directional lights.
     pub directional_lights: Vec<DirectionalLight>,
+    /// Panel lights: emitting rectangles that are no surface, lighting by
+    /// light sampling alone (the CS184 course's area lights).
+    pub panel_lights: Vec<PanelLight>,
     /// The camera, in render space.
     pub camera: CameraDesc,
     /// The world point at the origin of render space: every position above
@@ -521,6 +555,22 @@ impl Scene {
         (0..self.materials.len() as u32)
             .filter(|&m| used[m as usize])
             .collect()
+    }
+
+    /// Whether some material emits with a role other than
+    /// [`EmissionRole::Light`], or some light is a panel light: the
+    /// `emitter_roles` effect ([`crate::plan`]).
+    pub fn has_emitter_roles(&self) -> bool {
+        !self.panel_lights.is_empty() || self.seen_only_emitters()
+    }
+
+    /// Whether the material of some primitive emits with
+    /// [`EmissionRole::SeenOnly`].
+    pub fn seen_only_emitters(&self) -> bool {
+        self.used_materials().iter().any(|&m| {
+            let m = &self.materials[m as usize];
+            m.role == EmissionRole::SeenOnly && m.emission.max_element() > 0.0
+        })
     }
 
     /// Whether any material of a primitive emits.

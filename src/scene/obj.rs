@@ -18,7 +18,7 @@
 //! not rendered). tobj then parses that text, so its view and the checks
 //! are the same.
 
-use super::{Content, Material, MeshData, Scene, read_bounded};
+use super::{Content, EmissionRole, Material, MeshData, Scene, read_bounded};
 use crate::bsdf::{Bsdf, Diffuse, Glass, Mirror, Plastic};
 use crate::error::{Error, Result};
 use crate::limits::{
@@ -283,6 +283,7 @@ fn convert_material(
         texture,
         emission: colour("Ke", m.emissive, Vec3::ZERO)?,
         two_sided: false,
+        role: EmissionRole::Light,
         maps: Default::default(),
         alpha_mask: None,
     })

@@ -24,7 +24,7 @@ use super::params::{Params, Value};
 use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Masking, Microfacet, Plastic};
 use crate::error::{Error, Result, one_line};
 use crate::math::Vec3;
-use crate::scene::Material;
+use crate::scene::{EmissionRole, Material};
 use crate::texture::ImageTexture;
 use roxmltree::Node;
 use std::sync::Arc;
@@ -423,6 +423,7 @@ impl<'a, 'i> Loader<'a, 'i> {
             texture,
             emission: Vec3::ZERO,
             two_sided: false,
+            role: EmissionRole::Light,
             maps,
             alpha_mask: None,
         })
