@@ -17,7 +17,11 @@
 //!   are read past.
 //! - **Spheres**: the CGL `<extra>` `<sphere><radius>`, centred at the node's
 //!   origin, scaled by the length of its transformed x axis.
-//! - **Materials**: the CGL extras `emission` (`radiance`), `diffuse`
+//! - **Materials**: the CGL extras `emission` (`radiance`; seen from both
+//!   sides and never sampled, [`EmissionRole::SeenOnly`]: the course's
+//!   `EmissionBSDF` is counted by `zero_bounce_radiance`, on camera rays and
+//!   after delta bounces, while its light reaches the scene through the
+//!   area light beside it), `diffuse`
 //!   (`reflectance` or `albedo`; not read by the course, which takes
 //!   diffuse colours from `profile_COMMON`), `mirror`
 //!   (`reflectance`), `glass` (`transmittance`, `reflectance`, `ior`;
@@ -27,7 +31,9 @@
 //! - **Lights** (the CGL extra first, then `technique_common`): `area`, a
 //!   one-sided rectangle of radiance `color` centred at the node's origin,
 //!   facing its `-z`, with sides the transformed `(-1, 0, 0)` and
-//!   `(0, 1, 0)`; `point`, with no falloff (the course ignores the
+//!   `(0, 1, 0)`, which lights the scene by light sampling and is no
+//!   geometry (a [`PanelLight`]: the course keeps it in `scene->lights` and
+//!   out of its BVH, so no ray sees it and it casts no shadow); `point`, with no falloff (the course ignores the
 //!   attenuation it reads); `directional`, towards the node's `-z`;
 //!   `ambient`, radiance from the upper (`+y`) hemisphere.
 //! - **Camera**: the course does not use the camera node's position. It
@@ -44,10 +50,10 @@
 //! warnings naming the element and line; malformed ones are errors naming
 //! the file and line.
 
-use super::{Material, MeshData, Scene, SceneBuilder, WorldCamera};
+use super::{EmissionRole, Material, MeshData, Scene, SceneBuilder, WorldCamera};
 use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Mirror};
 use crate::error::{Error, Result, one_line};
-use crate::light::{DirectionalLight, EnvironmentMap, PointLight};
+use crate::light::{DirectionalLight, EnvironmentMap, PanelLight, PointLight};
 use crate::limits::{self, MAX_COORDINATE};
 use crate::math::Vec3;
 use crate::settings::LightCount;
@@ -71,8 +77,8 @@ struct Loader<'a, 'i> {
     builder: SceneBuilder,
     /// The camera node's world transform, if any.
     camera: Option<(DAffine3, Node<'a, 'i>)>,
-    /// Area lights, added after the bounds are taken.
-    areas: Vec<Area>,
+    /// Area lights added (to the builder, as panel lights).
+    area_lights: usize,
     ambient: Vec3,
     /// Point lights added (to the builder).
     point_lights: usize,
@@ -107,7 +113,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         warnings: Vec::new(),
         builder: SceneBuilder::new(path),
         camera: None,
-        areas: Vec::new(),
+        area_lights: 0,
         ambient: Vec3::ZERO,
         point_lights: 0,
         directional_lights: Vec::new(),
@@ -465,6 +471,8 @@ impl<'a, 'i> Loader<'a, 'i> {
                     "emission" => {
                         mat.emission = self.colour(self.need(b, "radiance")?)?;
                         mat.two_sided = true;
+                        // the course's EmissionBSDF: seen, never sampled
+                        mat.role = EmissionRole::SeenOnly;
                         Bsdf::Diffuse(Diffuse { albedo: Vec3::ZERO })
                     }
                     // not in the course's loader (its diffuse comes from
@@ -521,6 +529,7 @@ impl<'a, 'i> Loader<'a, 'i> {
                 if kind != "emission" {
                     mat.emission = Vec3::ZERO;
                     mat.two_sided = false;
+                    mat.role = EmissionRole::Light;
                 }
                 mat.bsdf = bsdf;
             }
@@ -764,15 +773,25 @@ impl<'a, 'i> Loader<'a, 'i> {
                 if dir == DVec3::ZERO || dim_x.cross(dim_y).length_squared() == 0.0 {
                     return Err(self.fail(e, "the area light's node transform flattens it"));
                 }
-                let line = self.line(e);
-                self.areas.push(Area {
-                    center: origin,
-                    facing: dir,
-                    dim_x,
-                    dim_y,
+                let far = origin.abs() + 0.5 * (dim_x.abs() + dim_y.abs());
+                if !(far.max_element() <= MAX_COORDINATE as f64) {
+                    return Err(self.fail(
+                        e,
+                        format!("the area light reaches past coordinate {MAX_COORDINATE:e}"),
+                    ));
+                }
+                // the course keeps it in `scene->lights` only: it lights by
+                // light sampling and is no geometry
+                let panel = PanelLight::new(
+                    Vec3::ZERO,
+                    dim_x.as_vec3(),
+                    dim_y.as_vec3(),
+                    dir.as_vec3(),
                     radiance,
-                    line,
-                });
+                )
+                .ok_or_else(|| self.fail(e, "the area light's node transform flattens it"))?;
+                self.area_lights += 1;
+                self.builder.add_panel_light(origin, panel);
             }
             "point" => {
                 let l = PointLight::new(Vec3::ZERO, colour(self)?)
@@ -883,34 +902,6 @@ impl<'a, 'i> Loader<'a, 'i> {
                 fov_y: 39.3,
             }
         };
-        // area lights: one-sided emitting rectangles
-        let areas = std::mem::take(&mut self.areas);
-        let n_areas = areas.len();
-        for (k, a) in areas.iter().enumerate() {
-            let (hx, hy) = (0.5 * a.dim_x, 0.5 * a.dim_y);
-            let mut corners = [
-                a.center - hx - hy,
-                a.center + hx - hy,
-                a.center + hx + hy,
-                a.center - hx + hy,
-            ];
-            if a.dim_x.cross(a.dim_y).dot(a.facing) < 0.0 {
-                corners.reverse();
-            }
-            let mesh = MeshData {
-                name: format!("area light {k}"),
-                positions: corners.to_vec(),
-                indices: vec![[0, 1, 2], [0, 2, 3]],
-                tri_material: vec![0, 0],
-                materials: vec![Material {
-                    emission: a.radiance,
-                    ..Material::diffuse(&format!("area-light-{k}"), Vec3::ZERO)
-                }],
-                ..MeshData::default()
-            };
-            self.builder
-                .add_mesh_matrix(mesh, DAffine3::IDENTITY, Some(a.line))?;
-        }
         let ambient = self.ambient;
         if ambient != Vec3::ZERO {
             // radiance from the upper hemisphere: rows from the +y pole to
@@ -925,7 +916,7 @@ impl<'a, 'i> Loader<'a, 'i> {
             );
         }
         let count = LightCount {
-            sampled: (n_areas + usize::from(ambient != Vec3::ZERO)) as u32,
+            sampled: (self.area_lights + usize::from(ambient != Vec3::ZERO)) as u32,
             delta: (self.point_lights + self.directional_lights.len()) as u32,
         };
         self.builder.scene_mut().directional_lights = self.directional_lights;
@@ -945,14 +936,4 @@ impl<'a, 'i> Loader<'a, 'i> {
         scene.warnings.extend(self.warnings);
         Ok(scene)
     }
-}
-
-/// An area light as the file gives it.
-struct Area {
-    center: DVec3,
-    facing: DVec3,
-    dim_x: DVec3,
-    dim_y: DVec3,
-    radiance: Vec3,
-    line: usize,
 }
