@@ -40,12 +40,23 @@
 //! intensity = 5.0             # W/sr on the axis, or [r, g, b]
 //! cutoff_angle = 30.0         # degrees (default 20)
 //! beam_width = 20.0           # degrees (default 3/4 of the cutoff)
+//!
+//! [[light]]
+//! type = "panel"              # no surface: lights by light sampling alone
+//! center = [0.0, 1.99, 0.0]   # (the CS184 course's area light; light/panel.rs)
+//! dim_x = [0.5, 0.0, 0.0]     # its edges
+//! dim_y = [0.0, 0.0, 0.4]
+//! facing = [0.0, -1.0, 0.0]   # the side it lights
+//! radiance = 8.0              # or [r, g, b]
 //! ```
+//!
+//! A material's `emission_role` is `"light"` (the default: sampled, and
+//! found by BSDF samples) or `"seen_only"` ([`EmissionRole::SeenOnly`]).
 
 use super::procedural::{self, Shape};
 use super::{
-    AlphaMask, BumpMap, Maps, Material, MeshData, Scene, SceneBuilder, Transform, WorldCamera,
-    load_obj_mesh, load_ply_mesh,
+    AlphaMask, BumpMap, EmissionRole, Maps, Material, MeshData, Scene, SceneBuilder, Transform,
+    WorldCamera, load_obj_mesh, load_ply_mesh,
 };
 use crate::bsdf::{
     Bsdf, Conductor, Diffuse, Distribution, Glass, Lobe, Masking, Microfacet, Mirror, Phong,
@@ -53,7 +64,7 @@ use crate::bsdf::{
 };
 use crate::camera::ThinLens;
 use crate::error::{Error, Result};
-use crate::light::{DirectionalLight, EnvironmentMap, PointLight, SpotLight};
+use crate::light::{DirectionalLight, EnvironmentMap, PanelLight, PointLight, SpotLight};
 use crate::limits::{self, MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
 use crate::math::{DVec3, Vec3};
 use crate::settings::{RenderDefaults, Roulette};
@@ -261,6 +272,7 @@ struct MaterialToml {
     roughness: Option<f32>,
     emission: Option<Param>,
     two_sided: Option<bool>,
+    emission_role: Option<String>,
     normal_map: Option<String>,
     bump_map: Option<String>,
     bump_scale: Option<f32>,
@@ -316,6 +328,10 @@ struct LightToml {
     target: Option<Exact<f64, 3>>,
     cutoff_angle: Option<f32>,
     beam_width: Option<f32>,
+    center: Option<Exact<f64, 3>>,
+    dim_x: Option<Exact<f32, 3>>,
+    dim_y: Option<Exact<f32, 3>>,
+    facing: Option<Exact<f32, 3>>,
 }
 
 /// A fixed-length array: more elements, or fewer, are an error at its line
@@ -864,6 +880,7 @@ fn apply_material(
             mat.texture = texture;
             mat.emission = Vec3::ZERO;
             mat.two_sided = false;
+            mat.role = EmissionRole::Light;
             mat.maps = maps;
         }
     }
@@ -913,6 +930,16 @@ fn apply_material(
     }
     if let Some(t) = over.two_sided {
         mat.two_sided = t;
+    }
+    match over.emission_role.as_deref() {
+        None => {}
+        Some("light") => mat.role = EmissionRole::Light,
+        Some("seen_only") => mat.role = EmissionRole::SeenOnly,
+        Some(other) => {
+            return Err(fail(format!(
+                "material.emission_role `{other}`: expected \"light\" or \"seen_only\""
+            )));
+        }
     }
     Ok(())
 }
@@ -1221,6 +1248,7 @@ pub fn load(path: &Path) -> Result<Scene> {
 
     let mut point_lights = Vec::new();
     let mut spot_lights = Vec::new();
+    let mut panel_lights = Vec::new();
     let scene = b.scene_mut();
     let light_lines = table_lines(&text, "light");
     for (i, l) in file.light.iter().enumerate() {
@@ -1237,6 +1265,10 @@ pub fn load(path: &Path) -> Result<Scene> {
             ("target", l.target.is_some()),
             ("cutoff_angle", l.cutoff_angle.is_some()),
             ("beam_width", l.beam_width.is_some()),
+            ("center", l.center.is_some()),
+            ("dim_x", l.dim_x.is_some()),
+            ("dim_y", l.dim_y.is_some()),
+            ("facing", l.facing.is_some()),
         ];
         let allowed: &[&str] = match l.kind.as_str() {
             "environment" => &["radiance", "file"],
@@ -1250,9 +1282,10 @@ pub fn load(path: &Path) -> Result<Scene> {
                 "cutoff_angle",
                 "beam_width",
             ],
+            "panel" => &["center", "dim_x", "dim_y", "facing", "radiance"],
             other => {
                 return Err(fail(format!(
-                    "unknown light type `{other}` (expected \"environment\", \"point\", \"spot\" or \"directional\")"
+                    "unknown light type `{other}` (expected \"environment\", \"point\", \"spot\", \"directional\" or \"panel\")"
                 )));
             }
         };
@@ -1289,6 +1322,23 @@ pub fn load(path: &Path) -> Result<Scene> {
                 } else {
                     scene.environment = Some(scene.environment.unwrap_or(Vec3::ZERO) + r);
                 }
+            }
+            "panel" => {
+                let (Some(c), Some(dx), Some(dy), Some(facing)) =
+                    (l.center, l.dim_x, l.dim_y, l.facing)
+                else {
+                    return Err(fail(
+                        "panel light needs `center`, `dim_x`, `dim_y` and `facing`".to_string(),
+                    ));
+                };
+                let c = check_point(path, line, "center", c.0)?;
+                let [dx, dy, facing] = [("dim_x", dx), ("dim_y", dy), ("facing", facing)]
+                    .map(|(k, v)| check_vec(path, line, k, Vec3::from(v.0)));
+                let l_e = check_colour(path, line, "radiance", need(l.radiance, "radiance")?)?;
+                let light = PanelLight::new(Vec3::ZERO, dx?, dy?, facing?, l_e).ok_or_else(|| {
+                    fail("panel light: `dim_x` and `dim_y` must span an area, and `facing` must not be zero".to_string())
+                })?;
+                panel_lights.push((c, light));
             }
             "point" => {
                 let p = l
@@ -1467,6 +1517,9 @@ pub fn load(path: &Path) -> Result<Scene> {
     }
     for (p, light) in spot_lights {
         b.add_spot_light(p, light);
+    }
+    for (c, light) in panel_lights {
+        b.add_panel_light(c, light);
     }
     Ok(b.build())
 }

@@ -32,7 +32,7 @@ use crate::bsdf::{Bsdf, Distribution, Lobe, Masking};
 use crate::error::{Error, Result};
 use crate::image::{self, OutputOptions};
 use crate::math::{Vec2, Vec3};
-use crate::scene::{AlphaMask, Material, NO_OVERRIDE, Scene};
+use crate::scene::{AlphaMask, EmissionRole, Material, NO_OVERRIDE, Scene};
 use crate::settings::{DirectStrategy, Roulette};
 use crate::texture::ImageTexture;
 use std::fmt::Write;
@@ -195,6 +195,9 @@ impl Writer<'_> {
         }
         if m.two_sided {
             keys.push("two_sided = true".to_string());
+        }
+        if m.role == EmissionRole::SeenOnly {
+            keys.push("emission_role = \"seen_only\"".to_string());
         }
         let alpha = match &m.alpha_mask {
             None => String::new(),
@@ -486,6 +489,17 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
             rgb(l.intensity),
             num(l.cutoff_angle()),
             num(l.beam_width())
+        );
+    }
+    for l in &scene.panel_lights {
+        let _ = write!(
+            t,
+            "\n[[light]]\ntype = \"panel\"\ncenter = {}\ndim_x = {}\ndim_y = {}\nfacing = {}\nradiance = {}\n",
+            world(scene, l.center),
+            rgb(l.dim_x),
+            rgb(l.dim_y),
+            rgb(l.facing),
+            rgb(l.radiance)
         );
     }
     for d in &scene.directional_lights {
