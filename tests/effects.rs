@@ -1,7 +1,8 @@
 //! Issue 7's whole-renderer tests:
 //!
 //! - `--plan general` gives the specialised kernel's image bit for bit, on
-//!   every bundled scene and every backend, and on small scenes that switch
+//!   every bundled scene and every backend, on a CS184 course scene (panel
+//!   light, emission seen only), and on small scenes that switch
 //!   each kernel flag on alone (point and directional lights, environment
 //!   and map, thin lens, smooth normals, textures, each material);
 //! - a glass sphere in a uniform white environment renders 1.0 wherever it
@@ -102,6 +103,17 @@ fn general_kernel_gives_the_same_bits_on_every_bundled_scene_and_backend() {
         for backend in Backend::available() {
             assert_same_bits(name, &scene, backend, [24, 16], 2);
         }
+    }
+    // a CS184 course scene: a panel light and emission seen only
+    let course = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/collada/course_box.dae");
+    let scene = Scene::load(&course).unwrap();
+    assert!(
+        Plan::new(&scene, &IntegratorSettings::default())
+            .on()
+            .contains(&"emitter_roles")
+    );
+    for backend in Backend::available() {
+        assert_same_bits("course_box.dae", &scene, backend, [48, 36], 4);
     }
     // a million triangles, or 20 million placed: the fast backends only,
     // a few pixels
