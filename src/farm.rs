@@ -167,6 +167,7 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         tri_dpduv: _,
         spheres,
         sphere_material,
+        sphere_uv_frames,
         instances,
         environment,
         environment_map,
@@ -213,8 +214,8 @@ pub fn scene_hash(scene: &Scene) -> u64 {
     if !spot_lights.is_empty() {
         let _ = write!(h, "{spot_lights:?}");
     }
-    if !panel_lights.is_empty() {
-        let _ = write!(h, "{panel_lights:?}");
+    if !panel_lights.is_empty() || !sphere_uv_frames.is_empty() {
+        let _ = write!(h, "{panel_lights:?}{sphere_uv_frames:?}");
     }
     // instances: the prototypes' bits, then each placement's (the shading
     // data follows from the geometry and the materials above); nothing for

@@ -92,6 +92,10 @@ pub struct PathTracer<'a> {
     /// up for its role, so other scenes pay one predictable branch where a
     /// BSDF sample finds emission).
     seen_only: bool,
+    /// Some material is one-sided ([`crate::scene::Material::one_sided`]):
+    /// checked before a hit looks its material up for that, so scenes of
+    /// two-sided surfaces pay one predictable branch per hit.
+    one_sided: bool,
     kernel: Kernel,
     trace_fn: TraceFn<'a>,
 }
@@ -171,6 +175,7 @@ impl<'a> PathTracer<'a> {
                 .collect(),
             normal_maps: scene.materials.iter().any(|m| m.maps.perturbs_normal()),
             seen_only: scene.seen_only_emitters(),
+            one_sided: scene.materials.iter().any(|m| m.one_sided),
             kernel,
             trace_fn: select_kernel(kernel),
         }

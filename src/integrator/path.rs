@@ -27,6 +27,7 @@ use crate::math::{Frame, Ray, SurfacePoint, Vec2, Vec3, gamma, spawn_ray};
 use crate::sampler::Sampler;
 use crate::sampling::power_heuristic;
 use crate::scene::EmissionRole;
+use crate::scene::maps::{shadowing_alpha2, shadowing_g};
 use crate::settings::{DirectStrategy, Roulette};
 
 /// Paths traced together: a 4 x 4 block of pixels, the width of Embree's
@@ -167,6 +168,20 @@ struct Shade<B> {
     transmits: bool,
     /// Where rays to the front of a smooth triangle start (Hanika's point).
     from: Option<SurfacePoint>,
+    /// The unperturbed shading normal and `a2` of a normal-mapped
+    /// material's shadowing term ([`crate::scene::Maps::shadowing`]).
+    shadowing: Option<(Vec3, f32)>,
+}
+
+impl<B> Shade<B> {
+    /// The shadowing term for light from `wi` (1 without one).
+    #[inline]
+    fn shadowing(&self, wi: Vec3) -> f32 {
+        match self.shadowing {
+            None => 1.0,
+            Some((n, a2)) => shadowing_g(n, a2, wi),
+        }
+    }
 }
 
 /// A light sample waiting for its shadow ray: its lane and what it adds
@@ -314,7 +329,7 @@ impl<'a> PathTracer<'a> {
             if EMITTERS {
                 lane.l += self.zero_bounce_radiance(&its);
             }
-            if self.settings.max_depth < 1 {
+            if self.settings.max_depth < 1 || self.black_from_behind(&its) {
                 lane.alive = false;
                 return None;
             }
@@ -362,7 +377,7 @@ impl<'a> PathTracer<'a> {
             lane.alive = false;
             return None;
         };
-        if lane.depth >= self.settings.max_depth {
+        if lane.depth >= self.settings.max_depth || self.black_from_behind(&its) {
             lane.alive = false;
             return None;
         }
@@ -415,6 +430,11 @@ impl<'a> PathTracer<'a> {
         } else {
             None
         };
+        let shadowing = (SHAPES && self.normal_maps && self.scene.materials[m].maps.shadowing)
+            .then(|| {
+                let n = self.unperturbed_normal(&its);
+                (n, shadowing_alpha2(n, its.ns))
+            });
         Shade {
             wo_local: frame.to_local(its.wo),
             its,
@@ -422,6 +442,7 @@ impl<'a> PathTracer<'a> {
             frame,
             transmits,
             from,
+            shadowing,
         }
     }
 
@@ -485,7 +506,7 @@ impl<'a> PathTracer<'a> {
                     continue;
                 }
                 let wi_local = sh.frame.to_local(ls.wi);
-                let f = sh.bsdf.eval(sh.wo_local, wi_local);
+                let f = sh.bsdf.eval(sh.wo_local, wi_local) * sh.shadowing(ls.wi);
                 if f == Vec3::ZERO || ls.li == Vec3::ZERO {
                     continue;
                 }
@@ -554,7 +575,7 @@ impl<'a> PathTracer<'a> {
             lane.alive = false;
             return;
         }
-        let weight = bs.weight();
+        let weight = bs.weight() * sh.shadowing(wi);
         lane.ray = match &sh.from {
             Some(p) if wi.dot(its.sp.n) > 0.0 => spawn_ray(p, wi),
             _ => spawn_ray(&its.sp, wi),
@@ -576,6 +597,38 @@ impl<'a> PathTracer<'a> {
             lane.eta_scale *= etap * etap;
         }
         lane.depth += 1;
+    }
+
+    /// Whether `its` is the back of a one-sided material
+    /// ([`crate::scene::Material::one_sided`]): `wo` not above its front
+    /// shading normal, the interpolated vertex normal where the triangle
+    /// has them (as Mitsuba 3 tests the cosine in the shading frame), else
+    /// the geometric one. Nothing scatters there.
+    #[inline]
+    fn black_from_behind(&self, its: &Interaction) -> bool {
+        if !self.one_sided || !self.scene.material(its.prim).one_sided {
+            return false;
+        }
+        let front = match self.corner_normals(its.prim) {
+            Some(c) => {
+                let n = (1.0 - its.u - its.v) * c[0] + its.u * c[1] + its.v * c[2];
+                if n == Vec3::ZERO { its.sp.n } else { n }
+            }
+            None => its.sp.n,
+        };
+        its.wo.dot(front) <= 0.0
+    }
+
+    /// The shading normal before any map perturbs it: the interpolated
+    /// vertex normal where the triangle has them, else the geometric
+    /// normal (either side).
+    fn unperturbed_normal(&self, its: &Interaction) -> Vec3 {
+        self.corner_normals(its.prim)
+            .map(|c| {
+                ((1.0 - its.u - its.v) * c[0] + its.u * c[1] + its.v * c[2]).normalize_or_zero()
+            })
+            .filter(|n| *n != Vec3::ZERO)
+            .unwrap_or(its.ng)
     }
 
     #[inline]
@@ -636,7 +689,7 @@ impl<'a> PathTracer<'a> {
             }
         };
         if mapped {
-            n = self.mapped_normal(hit, sp, n, ng);
+            n = self.mapped_normal(hit, sp, n, ng, wo);
             if n == Vec3::ZERO || n.dot(ng) <= 0.0 {
                 return ng;
             }
@@ -670,7 +723,7 @@ impl<'a> PathTracer<'a> {
     ///   normal's side. A zero gradient leaves `n` as it is (the formula
     ///   gives `n` again, up to rounding); so do degenerate UVs, where the
     ///   height has no slope on the surface.
-    fn mapped_normal(&self, hit: &Hit, sp: &SurfacePoint, n: Vec3, ng: Vec3) -> Vec3 {
+    fn mapped_normal(&self, hit: &Hit, sp: &SurfacePoint, n: Vec3, ng: Vec3, wo: Vec3) -> Vec3 {
         let maps = &self.scene.material(hit.prim).maps;
         let flip = if ng == sp.n { 1.0 } else { -1.0 };
         let front = flip * n;
@@ -695,6 +748,13 @@ impl<'a> PathTracer<'a> {
             if m.dot(sp.n) < 0.0 { -m } else { m }
         } else {
             return n;
+        };
+        // Mitsuba's flip_invalid_normals: the viewer and the mapped normal
+        // on opposite sides of the unperturbed normal's plane
+        let mapped = if maps.flip_invalid && wo.dot(front) * wo.dot(mapped) <= 0.0 {
+            (2.0 * mapped.dot(front) * front - mapped).normalize_or_zero()
+        } else {
+            mapped
         };
         flip * mapped
     }

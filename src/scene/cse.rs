@@ -719,6 +719,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             // the courses add emission whichever side is seen
             two_sided: emission != Vec3::ZERO,
             role: EmissionRole::Light,
+            one_sided: false,
             maps: Default::default(),
             alpha_mask: None,
         });
@@ -768,6 +769,7 @@ pub fn load(path: &Path) -> Result<Scene> {
                 emission: *radiance,
                 two_sided: false,
                 role: EmissionRole::Light,
+                one_sided: false,
                 maps: Default::default(),
                 alpha_mask: None,
             });

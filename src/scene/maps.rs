@@ -58,6 +58,45 @@ pub struct Maps {
     pub normal: Option<Arc<ImageTexture>>,
     /// A bump map.
     pub bump: Option<BumpMap>,
+    /// With a normal or bump map: where the viewer and the mapped normal
+    /// lie on opposite sides of the unperturbed shading normal's plane
+    /// (`(wo . n) (wo . m) <= 0`), the mapped normal `m` is mirrored about
+    /// `n` (its tangential part negated), Mitsuba 3's
+    /// `flip_invalid_normals` (Schüssler et al. 2017). Off, the smooth
+    /// shading rule bends an invalid normal towards the viewer instead
+    /// (`integrator::path`).
+    pub flip_invalid: bool,
+    /// With a normal or bump map: light arriving at `wi` is attenuated by
+    /// Mitsuba 3's `use_shadowing_function` term (Conty Estevez et al. 2019,
+    /// "A Microfacet-Based Shadowing Function to Solve the Bump Terminator
+    /// Problem", Ray Tracing Gems): `G = 2 / (1 + sqrt(1 + a2 tan^2 wi))`,
+    /// `a2 = min(tan^2(m) / 8, 1)`, both angles from the unperturbed shading
+    /// normal. It scales the BSDF's value and its samples' weights, not
+    /// their densities: a named, deliberate loss of energy at grazing light.
+    pub shadowing: bool,
+}
+
+/// The term of [`Maps::shadowing`] for light from `wi`, with `a2` from
+/// [`shadowing_alpha2`]; `n` the unperturbed shading normal (either side).
+#[inline]
+pub fn shadowing_g(n: Vec3, a2: f32, wi: Vec3) -> f32 {
+    let c2 = n.dot(wi).powi(2);
+    if !(c2 > 0.0) {
+        return 0.0;
+    }
+    let tan2 = (1.0 - c2).max(0.0) / c2;
+    2.0 / (1.0 + (1.0 + a2 * tan2).sqrt())
+}
+
+/// `a2` of [`shadowing_g`]: the squared roughness that the mapped normal
+/// `m`'s tilt from `n` implies, `min(tan^2 / 8, 1)`.
+#[inline]
+pub fn shadowing_alpha2(n: Vec3, m: Vec3) -> f32 {
+    let c2 = n.dot(m).powi(2);
+    if !(c2 > 0.0) {
+        return 1.0;
+    }
+    (0.125 * (1.0 - c2).max(0.0) / c2).min(1.0)
 }
 
 impl Maps {

@@ -17,7 +17,7 @@ mod collada;
 mod cse;
 mod input;
 mod instances;
-mod maps;
+pub mod maps;
 mod mesh;
 mod mitsuba;
 mod obj;
@@ -35,6 +35,7 @@ use crate::math::{DVec3, Ray, SurfacePoint, Vec2, Vec3, trig};
 use crate::settings::RenderDefaults;
 use crate::shape::Sphere;
 use crate::texture::ImageTexture;
+use glam::Mat3;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -90,6 +91,14 @@ pub struct Material {
     pub two_sided: bool,
     /// What the estimator does with the emission ([`EmissionRole`]).
     pub role: EmissionRole,
+    /// Black seen from behind: where `wo` is below the front shading normal
+    /// (the interpolated vertex normal, else the geometric one), the
+    /// surface neither reflects nor transmits and a path that reaches it
+    /// ends there (its emission still counts, by `two_sided`). Mitsuba 3's
+    /// reflective BSDFs (`diffuse`, the conductors, the plastics) are so
+    /// unless wrapped in `twosided`; every other format's surfaces, and the
+    /// TOML format's, reflect on both sides.
+    pub one_sided: bool,
     /// Textures on the other parameters, and a normal or bump map.
     pub maps: Maps,
     /// Cut-outs: the surface's opacity (see [`AlphaMask`]); `None` is
@@ -161,6 +170,7 @@ impl Default for Material {
             emission: Vec3::ZERO,
             two_sided: false,
             role: EmissionRole::Light,
+            one_sided: false,
             maps: Maps::default(),
             alpha_mask: None,
         }
@@ -227,6 +237,13 @@ pub struct Scene {
     pub spheres: Vec<Sphere>,
     /// Material index per sphere.
     pub sphere_material: Vec<u32>,
+    /// Per sphere, the rotation (or reflection) that takes a world
+    /// direction from its centre into the frame where [`Scene::uv`]'s
+    /// mapping applies (pole `+y`, `u` from `+x` towards `-z`); empty when
+    /// every sphere uses the world's axes. A Mitsuba 3 sphere maps its
+    /// local `+z` pole there, with its `to_world` rotation (Mitsuba's
+    /// `u = atan2(y, x) / 2 pi`, `v = acos(z) / pi` in the sphere's frame).
+    pub sphere_uv_frames: Vec<Mat3>,
     /// Instanced meshes: prototypes stored once and their placements, whose
     /// triangles are the primitives after the spheres.
     pub instances: SceneInstances,
@@ -441,7 +458,7 @@ impl Scene {
                 None => Vec2::ZERO,
             },
             Some(_) => {
-                let n = sp.n;
+                let n = self.sphere_uv_frame(prim).map_or(sp.n, |f| f * sp.n);
                 let phi = trig::atan2(-n.z, n.x);
                 let phi = if phi < 0.0 {
                     phi + std::f32::consts::TAU
@@ -478,8 +495,19 @@ impl Scene {
                 .get(prim as usize)
                 .filter(|d| d[0] != Vec3::ZERO && d[1] != Vec3::ZERO)
                 .copied(),
-            Some(s) => maps::sphere_uv_derivatives(s.radius, sp.n),
+            Some(s) => match self.sphere_uv_frame(prim) {
+                None => maps::sphere_uv_derivatives(s.radius, sp.n),
+                Some(f) => maps::sphere_uv_derivatives(s.radius, f * sp.n)
+                    .map(|d| d.map(|v| f.transpose() * v)),
+            },
         }
+    }
+
+    /// [`Scene::sphere_uv_frames`]'s entry for primitive `prim`, a sphere.
+    #[inline]
+    fn sphere_uv_frame(&self, prim: u32) -> Option<Mat3> {
+        let i = (prim as usize).checked_sub(self.indices.len())?;
+        self.sphere_uv_frames.get(i).copied()
     }
 
     /// The camera for a `width` x `height` image, with the scene's lens.

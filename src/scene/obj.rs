@@ -284,6 +284,7 @@ fn convert_material(
         emission: colour("Ke", m.emissive, Vec3::ZERO)?,
         two_sided: false,
         role: EmissionRole::Light,
+        one_sided: false,
         maps: Default::default(),
         alpha_mask: None,
     })

@@ -15,7 +15,7 @@ use crate::limits::{MAX_COORDINATE, MAX_TRIANGLES, MAX_VERTICES};
 use crate::math::{DVec3, Vec2, Vec3, needle_factor, triangle_normal};
 use crate::settings::RenderDefaults;
 use crate::shape::Sphere;
-use glam::DAffine3;
+use glam::{DAffine3, Mat3};
 use std::path::Path;
 
 /// A camera placed in world space (f64), before the scene is rebased.
@@ -128,8 +128,8 @@ pub struct SceneBuilder {
     placed: Vec<Placed>,
     /// Triangles and vertices in `placed`.
     counts: (u64, u64),
-    /// Spheres' world centres, radii and material indices.
-    spheres: Vec<(DVec3, f32, u32)>,
+    /// Spheres' world centres, radii, material indices and texture frames.
+    spheres: Vec<(DVec3, f32, u32, Mat3)>,
     /// Point lights and their world positions.
     point_lights: Vec<(DVec3, PointLight)>,
     /// Spot lights and their world positions.
@@ -168,6 +168,7 @@ impl SceneBuilder {
                 tri_dpduv: Vec::new(),
                 spheres: Vec::new(),
                 sphere_material: Vec::new(),
+                sphere_uv_frames: Vec::new(),
                 instances: SceneInstances::default(),
                 environment: None,
                 environment_map: None,
@@ -576,6 +577,19 @@ impl SceneBuilder {
         material: Material,
         line: Option<usize>,
     ) -> Result<()> {
+        self.add_sphere_framed(center, radius, material, Mat3::IDENTITY, line)
+    }
+
+    /// [`SceneBuilder::add_sphere`] with its texture frame
+    /// ([`Scene::sphere_uv_frames`]).
+    pub fn add_sphere_framed(
+        &mut self,
+        center: DVec3,
+        radius: f32,
+        material: Material,
+        uv_frame: Mat3,
+        line: Option<usize>,
+    ) -> Result<()> {
         let s = &mut self.scene;
         if material.alpha_mask.is_some() {
             return Err(Error::input(
@@ -592,7 +606,7 @@ impl SceneBuilder {
             ));
         }
         self.spheres
-            .push((center, radius, s.materials.len() as u32));
+            .push((center, radius, s.materials.len() as u32, uv_frame));
         s.materials.push(material);
         Ok(())
     }
@@ -651,7 +665,7 @@ impl SceneBuilder {
                 }
             }
         }
-        for &(c, r, _) in &self.spheres {
+        for &(c, r, ..) in &self.spheres {
             add(c - r as f64);
             add(c + r as f64);
         }
@@ -701,7 +715,11 @@ impl SceneBuilder {
         for placed in std::mem::take(&mut self.placed) {
             self.rebase(placed, origin);
         }
-        for (c, radius, m) in std::mem::take(&mut self.spheres) {
+        let spheres = std::mem::take(&mut self.spheres);
+        if spheres.iter().any(|s| s.3 != Mat3::IDENTITY) {
+            self.scene.sphere_uv_frames = spheres.iter().map(|s| s.3).collect();
+        }
+        for (c, radius, m, _) in spheres {
             self.scene.spheres.push(Sphere {
                 center: (c - origin).as_vec3(),
                 radius,

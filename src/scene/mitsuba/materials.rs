@@ -225,8 +225,9 @@ impl<'a, 'i> Loader<'a, 'i> {
                     ));
                 }
                 self.finish(p);
-                // embertrace's surfaces scatter on both sides already
+                // the same BSDF on both sides (the front's, mirrored)
                 let mut m = self.bsdf(inner)?;
+                m.one_sided = false;
                 m.name = name;
                 return Ok(m);
             }
@@ -290,21 +291,9 @@ impl<'a, 'i> Loader<'a, 'i> {
                 }
                 let t = self.texture(map)?;
                 let scale = p.number("scale").map_or(1.0, |v| v.0) as f32;
-                // Mitsuba 3.7 added a terminator shadowing term (Conty
-                // Estevez et al. 2019), on by default, which darkens
-                // grazing light by about 1 % on a gently mapped floor;
-                // embertrace has none. Its `flip_invalid_normals` folds an
-                // invalid normal, where embertrace bends it towards the
-                // viewer (the smooth-normal rule): read, not warned about.
-                if p.boolean("use_shadowing_function").is_none_or(|v| v.0) {
-                    self.warn(
-                        node,
-                        format!(
-                            "{kind}: Mitsuba's use_shadowing_function (on by default) is not modelled; set it to false to compare"
-                        ),
-                    );
-                }
-                p.boolean("flip_invalid_normals");
+                // both on by default since Mitsuba 3.7.1 (Maps docs)
+                let shadowing = p.boolean("use_shadowing_function").is_none_or(|v| v.0);
+                let flip_invalid = p.boolean("flip_invalid_normals").is_none_or(|v| v.0);
                 if !scale.is_finite() {
                     return Err(self.fail(node, format!("bumpmap: `scale` {scale} is not finite")));
                 }
@@ -321,6 +310,8 @@ impl<'a, 'i> Loader<'a, 'i> {
                 } else {
                     m.maps.bump = Some(crate::scene::BumpMap { texture: t, scale });
                 }
+                m.maps.shadowing = shadowing;
+                m.maps.flip_invalid = flip_invalid;
                 m.name = name;
                 return Ok(m);
             }
@@ -424,6 +415,9 @@ impl<'a, 'i> Loader<'a, 'i> {
             emission: Vec3::ZERO,
             two_sided: false,
             role: EmissionRole::Light,
+            // Mitsuba's dielectric transmits; its reflective BSDFs test
+            // both cosines in the shading frame and are black from behind
+            one_sided: !matches!(bsdf, Bsdf::Glass(_)),
             maps,
             alpha_mask: None,
         })

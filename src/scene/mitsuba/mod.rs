@@ -47,10 +47,22 @@
 //! `params` (a plugin's parameters), `transform`, `sensor` (with its film
 //! and sampler), `shapes`, `materials` (BSDFs and textures) and `emitters`.
 //!
-//! One difference stays, by design: Mitsuba's BSDFs other than `twosided`
-//! and `dielectric` are black seen from behind, and embertrace's surfaces
-//! scatter on both sides. In a closed room seen from inside the two agree;
-//! a back face in view differs.
+//! What the file leaves unsaid is read with Mitsuba's meaning:
+//!
+//! - A shape without a `<bsdf>` is a one-sided diffuse of reflectance 0.5,
+//!   or 0 when it has an emitter (Mitsuba's `Shape` constructor).
+//! - Mitsuba's reflective BSDFs (`diffuse`, the conductors, the plastics)
+//!   are one-sided, black seen from behind, unless wrapped in `twosided`
+//!   ([`crate::scene::Material::one_sided`]); `dielectric` is two-sided.
+//! - `normalmap` and `bumpmap` honour `flip_invalid_normals` and
+//!   `use_shadowing_function`, both on by default as in Mitsuba 3.7.1 and
+//!   later ([`crate::scene::Maps::flip_invalid`], [`crate::scene::Maps::shadowing`]).
+//! - A `sphere` keeps its `to_world` rotation for its texture coordinates:
+//!   the pole is its local `+z` ([`crate::scene::Scene::sphere_uv_frames`]).
+//! - Parameters read and not honoured are warnings naming the file and
+//!   line (`near_clip`, `far_clip` away from their defaults; `flip_normals`
+//!   on a sphere); `sample_visible` changes only the noise and is read
+//!   silently. A render's `-q` never hides a warning.
 
 mod emitters;
 mod materials;

@@ -11,7 +11,7 @@ use crate::error::{Result, one_line};
 use crate::limits::MAX_COORDINATE;
 use crate::math::{Vec2, Vec3};
 use crate::scene::{Material, MeshData, SceneBuilder, load_obj_mesh, load_ply_mesh};
-use glam::{DAffine3, DVec3};
+use glam::{DAffine3, DVec3, Mat3};
 use roxmltree::Node;
 
 /// What one `<shape>` adds.
@@ -19,19 +19,31 @@ pub(super) enum Geometry {
     /// A mesh in its own space and its `to_world`.
     Mesh(MeshData, DAffine3),
     /// An analytic sphere: world centre, radius, material.
-    Sphere(DVec3, f32, Material),
+    Sphere(DVec3, f32, Material, Mat3),
 }
 
 /// Triangles of a tessellated `disk`.
 pub const DISK_SEGMENTS: usize = 256;
 
 impl<'a, 'i> Loader<'a, 'i> {
-    /// A shape's BSDF: a child `<bsdf>` or `<ref>`, or Mitsuba's default
-    /// (diffuse 0.5).
-    fn shape_material(&mut self, p: &mut Params<'a, 'i>) -> Result<Material> {
+    /// A shape's BSDF: a child `<bsdf>` or `<ref>`, or Mitsuba's default:
+    /// a one-sided diffuse of reflectance 0.5, or 0 when the shape emits
+    /// (Mitsuba's `Shape` constructor: an emitter's surface reflects
+    /// nothing unless the file gives it a BSDF).
+    fn shape_material(&mut self, p: &mut Params<'a, 'i>, emits: bool) -> Result<Material> {
         match p.unnamed_of("bsdf") {
             Some(node) => self.bsdf(node),
-            None => Ok(Material::diffuse("default", Vec3::splat(0.5))),
+            None => {
+                let (name, albedo) = if emits {
+                    ("default-emitter", 0.0)
+                } else {
+                    ("default", 0.5)
+                };
+                Ok(Material {
+                    one_sided: true,
+                    ..Material::diffuse(name, Vec3::splat(albedo))
+                })
+            }
         }
     }
 
@@ -42,7 +54,9 @@ impl<'a, 'i> Loader<'a, 'i> {
             "instance" => self.instance(node, b),
             _ => match self.shape_geometry(node)? {
                 Geometry::Mesh(mesh, m) => b.add_mesh_matrix(mesh, m, line),
-                Geometry::Sphere(c, r, material) => b.add_sphere(c, r, material, line),
+                Geometry::Sphere(c, r, material, uv) => {
+                    b.add_sphere_framed(c, r, material, uv, line)
+                }
             },
         }
     }
@@ -148,7 +162,8 @@ impl<'a, 'i> Loader<'a, 'i> {
         let kind = self.need_attr(node, "type")?;
         let at = self.line(node);
         let mut p = self.params(node)?;
-        let mut material = self.shape_material(&mut p)?;
+        let emits = node.children().any(|c| c.has_tag_name("emitter"));
+        let mut material = self.shape_material(&mut p, emits)?;
         if let Some(e) = p.unnamed_of("emitter") {
             let et = self.need_attr(e, "type")?;
             if et != "area" {
@@ -212,7 +227,7 @@ impl<'a, 'i> Loader<'a, 'i> {
                         format!("sphere at {c} of radius {r}: the radius must be > 0 and the sphere within +-{MAX_COORDINATE:e}"),
                     ));
                 }
-                return Ok(Geometry::Sphere(c, r, material));
+                return Ok(Geometry::Sphere(c, r, material, sphere_uv_frame(&m)));
             }
             other => {
                 return Err(self.fail(
@@ -283,6 +298,25 @@ impl<'a, 'i> Loader<'a, 'i> {
         }
         Ok((m.transform_point3(center), radius * s as f32))
     }
+}
+
+/// The texture frame of a Mitsuba sphere placed by the similarity `m`
+/// ([`crate::scene::Scene::sphere_uv_frames`]): a world direction `n` goes
+/// to the sphere's local frame by `R^T n` (`R` the rotation part of `m`),
+/// where Mitsuba takes `u = atan2(y, x) / 2 pi` and `v = acos(z) / pi`
+/// (`src/shapes/sphere.cpp`); `(x, z, -y)` then gives the same `u` and
+/// `1 - v` under embertrace's mapping (pole `+y`, `u = atan2(-z, x) / 2 pi`,
+/// `v = 1 - acos(y) / pi`): `1 - v` because Mitsuba looks `v = 0` up at an
+/// image's top row and embertrace at its bottom, as for meshes above.
+fn sphere_uv_frame(m: &DAffine3) -> Mat3 {
+    let s = m.matrix3.x_axis.length();
+    let r = (m.matrix3 * (1.0 / s)).as_mat3();
+    let to_ours = Mat3::from_cols(
+        glam::Vec3::new(1.0, 0.0, 0.0),
+        glam::Vec3::new(0.0, 0.0, -1.0),
+        glam::Vec3::new(0.0, 1.0, 0.0),
+    );
+    to_ours * r.transpose()
 }
 
 /// Two triangles over the corners `c` (counter-clockwise seen from the
