@@ -56,6 +56,7 @@ fn round_trip(path: &Path) {
         path.display()
     );
     assert_eq!(again.spheres, scene.spheres);
+    assert_eq!(again.sphere_uv_frames, scene.sphere_uv_frames);
     // instances stay instances, with the same object-space triangles and
     // the same maps
     // (each triangle's corners: the OBJ shares no vertex)
@@ -246,6 +247,7 @@ fn mitsuba_and_ply_scenes_round_trip_to_the_same_bits() {
         "envmap.xml",
         "spot.xml",
         "maps.xml",
+        "meaning.xml",
         "floor.ply",
     ] {
         round_trip(&data.join(name));

@@ -273,6 +273,9 @@ struct MaterialToml {
     emission: Option<Param>,
     two_sided: Option<bool>,
     emission_role: Option<String>,
+    one_sided: Option<bool>,
+    flip_invalid_normals: Option<bool>,
+    use_shadowing_function: Option<bool>,
     normal_map: Option<String>,
     bump_map: Option<String>,
     bump_scale: Option<f32>,
@@ -311,6 +314,8 @@ struct SphereToml {
     center: Exact<f64, 3>,
     radius: f32,
     material: Option<MaterialToml>,
+    /// Row-major 3 x 3: Scene::sphere_uv_frames' entry.
+    uv_frame: Option<Exact<f32, 9>>,
 }
 
 #[derive(Deserialize)]
@@ -931,6 +936,15 @@ fn apply_material(
     if let Some(t) = over.two_sided {
         mat.two_sided = t;
     }
+    if let Some(o) = over.one_sided {
+        mat.one_sided = o;
+    }
+    if let Some(f) = over.flip_invalid_normals {
+        mat.maps.flip_invalid = f;
+    }
+    if let Some(s) = over.use_shadowing_function {
+        mat.maps.shadowing = s;
+    }
     match over.emission_role.as_deref() {
         None => {}
         Some("light") => mat.role = EmissionRole::Light,
@@ -1243,7 +1257,22 @@ pub fn load(path: &Path) -> Result<Scene> {
         if let Some(over) = &sp.material {
             apply_material(path, line, over, &mut material, &mut textures)?;
         }
-        b.add_sphere(center, sp.radius, material, line)?;
+        let uv_frame = match sp.uv_frame {
+            None => glam::Mat3::IDENTITY,
+            Some(Exact(f)) => {
+                let m = glam::Mat3::from_cols_array(&f).transpose();
+                let orthonormal = (m * m.transpose()).abs_diff_eq(glam::Mat3::IDENTITY, 1e-4);
+                if !f.iter().all(|x| x.is_finite()) || !orthonormal {
+                    return Err(Error::input(
+                        path,
+                        line,
+                        "sphere uv_frame must be an orthonormal 3 x 3 matrix (9 numbers, row-major)",
+                    ));
+                }
+                m
+            }
+        };
+        b.add_sphere_framed(center, sp.radius, material, uv_frame, line)?;
     }
 
     let mut point_lights = Vec::new();

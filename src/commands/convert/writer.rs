@@ -196,6 +196,13 @@ impl Writer<'_> {
         if m.two_sided {
             keys.push("two_sided = true".to_string());
         }
+        if m.one_sided {
+            keys.push("one_sided = true".to_string());
+        }
+        if m.maps.perturbs_normal() {
+            keys.push(format!("flip_invalid_normals = {}", m.maps.flip_invalid));
+            keys.push(format!("use_shadowing_function = {}", m.maps.shadowing));
+        }
         if m.role == EmissionRole::SeenOnly {
             keys.push("emission_role = \"seen_only\"".to_string());
         }
@@ -459,7 +466,7 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
         }
     }
     instances(&mut w, scene, &mut t)?;
-    for (s, &m) in scene.spheres.iter().zip(&scene.sphere_material) {
+    for (i, (s, &m)) in scene.spheres.iter().zip(&scene.sphere_material).enumerate() {
         // spheres have no masks (the loaders refuse them)
         let (material, _) = w.material(&scene.materials[m as usize])?;
         let _ = write!(
@@ -468,6 +475,10 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
             world(scene, s.center),
             num(s.radius)
         );
+        if let Some(f) = scene.sphere_uv_frames.get(i) {
+            let rows: Vec<String> = (0..3).flat_map(|r| f.row(r).to_array()).map(num).collect();
+            let _ = writeln!(t, "uv_frame = [{}]", rows.join(", "));
+        }
     }
     for p in &scene.point_lights {
         let _ = write!(
