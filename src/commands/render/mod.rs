@@ -119,7 +119,8 @@ pub struct RenderArgs {
     /// the report states the energy removed) [default: no clamp].
     #[arg(long, value_name = "MAX", allow_negative_numbers = true)]
     clamp: Option<f32>,
-    /// Print nothing but errors.
+    /// Print nothing but errors and the scene's warnings (what the file
+    /// asks for that the image will lack): no notes, no progress.
     #[arg(short = 'q', long)]
     quiet: bool,
     /// Stop after the pass that reaches this many seconds of rendering
@@ -344,8 +345,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
     for note in &scene.notes {
         say(&format!("note: {}", clip(note)));
     }
+    // a warning is something the file asked for that the image lacks:
+    // -q hides progress and notes, never these
     for warning in &scene.warnings {
-        say(&format!("warning: {}", clip(warning)));
+        eprintln!("warning: {}", clip(warning));
     }
     let backend = args.accel.unwrap_or_else(Backend::default_backend);
 

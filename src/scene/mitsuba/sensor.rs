@@ -161,8 +161,22 @@ impl<'a, 'i> Loader<'a, 'i> {
             scene.lens = ThinLens::new(radius as f32, focus as f32)
                 .map_err(|e| self.fail(node, format!("thinlens: {e}")))?;
         }
-        for key in ["near_clip", "far_clip"] {
-            p.number(key);
+        // Mitsuba's defaults clip nothing a scene of ordinary size has;
+        // other values hide geometry, which embertrace does not
+        for (key, default) in [("near_clip", 1e-2), ("far_clip", 1e4)] {
+            if let Some((v, _)) = p.number(key) {
+                let clips = if key == "near_clip" {
+                    v > default
+                } else {
+                    v < default
+                };
+                if clips {
+                    self.warn(
+                        node,
+                        format!("`{key}` {v} is not honoured: embertrace clips no geometry"),
+                    );
+                }
+            }
         }
         self.finish(p);
         Ok(())
