@@ -29,7 +29,7 @@ import mitsuba as mi
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-SCENES = ["cbox", "lights", "envmap", "instances", "spot", "maps", "production"]
+SCENES = ["cbox", "lights", "envmap", "instances", "spot", "maps", "production", "meaning"]
 # Scenes rendered with `volpath` instead of their XML's `path`: Mitsuba
 # 3.9.1's `path` tests an emitter sample's visibility with every surface
 # opaque, so its shadow rays stop at a `mask`'s holes (while its BSDF samples
