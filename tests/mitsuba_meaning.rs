@@ -12,10 +12,9 @@
 //!   another lamp is exactly 0, and 0.27706 again with `twosided`;
 //! - `-q` hides notes and progress, never a warning.
 
-use embertrace::accel::{self, AccelOptions, Backend};
-use embertrace::integrator::PathTracer;
-use embertrace::render::{RenderSettings, render};
-use embertrace::sampler::SamplerKind;
+mod common;
+
+use common::one_pixel;
 use embertrace::scene::Scene;
 use embertrace::settings::IntegratorSettings;
 use std::path::Path;
@@ -61,34 +60,12 @@ fn load(dir: &Path, text: &str) -> Scene {
 /// The single pixel's mean and the variance of that mean, at the file's
 /// depth.
 fn pixel(scene: &Scene, spp: u32, seed: u64) -> (f64, f64) {
-    let acc = accel::build(
-        Backend::default_backend(),
-        scene.soup(),
-        AccelOptions::default(),
-    )
-    .unwrap();
     let settings = IntegratorSettings {
         max_depth: scene.render.max_depth,
         ..IntegratorSettings::default()
     };
-    let tracer = PathTracer::new(scene, acc.as_ref(), settings);
-    let rs = RenderSettings {
-        total_spp: None,
-        resolution: [1, 1],
-        spp,
-        first_sample: 0,
-        seed,
-        threads: 0,
-        tile_size: 8,
-        sampler: SamplerKind::Independent,
-        clamp: None,
-    };
-    let out = render(&tracer, &scene.make_camera(1, 1), &rs, &|| {}).unwrap();
-    assert_eq!(out.nonfinite.count, 0);
-    (
-        out.film.mean(0, 0).y as f64,
-        out.film.variance_of_mean(0, 0).y as f64,
-    )
+    let (m, v) = one_pixel(scene, settings, spp, seed);
+    (m.y as f64, v.y as f64)
 }
 
 /// `rho / pi` times the irradiance below the centre of a 2 x 2 emitter of

@@ -14,10 +14,9 @@
 //! - `embertrace convert` writes it as a TOML `panel` light that renders
 //!   the same bits.
 
-use embertrace::accel::{self, AccelOptions, Backend};
-use embertrace::integrator::PathTracer;
-use embertrace::render::{RenderSettings, render};
-use embertrace::sampler::SamplerKind;
+mod common;
+
+use common::one_pixel;
 use embertrace::scene::Scene;
 use embertrace::settings::{DirectStrategy, IntegratorSettings, LightSampler};
 use std::path::Path;
@@ -67,28 +66,7 @@ fov_y = 0.2
 
 /// The single pixel's mean and the variance of that mean.
 fn pixel(scene: &Scene, settings: IntegratorSettings, spp: u32, seed: u64) -> (f64, f64) {
-    let acc = accel::build(
-        Backend::default_backend(),
-        scene.soup(),
-        AccelOptions::default(),
-    )
-    .unwrap();
-    let tracer = PathTracer::new(scene, acc.as_ref(), settings);
-    let rs = RenderSettings {
-        total_spp: None,
-        resolution: [1, 1],
-        spp,
-        first_sample: 0,
-        seed,
-        threads: 0,
-        tile_size: 8,
-        sampler: SamplerKind::Independent,
-        clamp: None,
-    };
-    let out = render(&tracer, &scene.make_camera(1, 1), &rs, &|| {}).unwrap();
-    assert_eq!(out.nonfinite.count, 0);
-    let m = out.film.mean(0, 0);
-    let v = out.film.variance_of_mean(0, 0);
+    let (m, v) = one_pixel(scene, settings, spp, seed);
     assert_eq!(m.x, m.z, "a grey scene");
     (m.x as f64, v.x as f64)
 }

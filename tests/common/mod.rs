@@ -352,3 +352,35 @@ pub fn backends(scene: &Scene) -> Vec<(Backend, Box<dyn Accelerator>)> {
         })
         .collect()
 }
+
+/// A 1 x 1 render of `scene` with independent samples on the default
+/// backend: the pixel's mean and the variance of that mean, per channel,
+/// after checking that no sample was non-finite.
+pub fn one_pixel(
+    scene: &Scene,
+    settings: embertrace::settings::IntegratorSettings,
+    spp: u32,
+    seed: u64,
+) -> (Vec3, Vec3) {
+    let acc = accel::build(
+        Backend::default_backend(),
+        scene.soup(),
+        AccelOptions::default(),
+    )
+    .unwrap();
+    let tracer = embertrace::integrator::PathTracer::new(scene, acc.as_ref(), settings);
+    let rs = embertrace::render::RenderSettings {
+        total_spp: None,
+        resolution: [1, 1],
+        spp,
+        first_sample: 0,
+        seed,
+        threads: 0,
+        tile_size: 8,
+        sampler: embertrace::sampler::SamplerKind::Independent,
+        clamp: None,
+    };
+    let out = embertrace::render::render(&tracer, &scene.make_camera(1, 1), &rs, &|| {}).unwrap();
+    assert_eq!(out.nonfinite.count, 0);
+    (out.film.mean(0, 0), out.film.variance_of_mean(0, 0))
+}
