@@ -248,6 +248,7 @@ fn mitsuba_and_ply_scenes_round_trip_to_the_same_bits() {
         "spot.xml",
         "maps.xml",
         "meaning.xml",
+        "grazing.xml",
         "floor.ply",
     ] {
         round_trip(&data.join(name));

@@ -51,7 +51,7 @@ const SYSTEMATIC: f64 = 2e-3;
 /// 1 % bias the test must see, the other half left to the noise.
 const MAX_RELATIVE_BAND: f64 = 0.005;
 /// The scenes and their block counts ((w / 8) x (h / 8)).
-const SCENES: [(&str, usize); 8] = [
+const SCENES: [(&str, usize); 9] = [
     ("cbox", 30),
     ("lights", 35),
     ("envmap", 30),
@@ -60,6 +60,7 @@ const SCENES: [(&str, usize); 8] = [
     ("maps", 30),
     ("production", 30),
     ("meaning", 48),
+    ("grazing", 72),
 ];
 
 fn data(name: &str) -> PathBuf {

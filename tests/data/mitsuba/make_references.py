@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Write the assets of the Mitsuba XML test scenes (icosphere.obj, floor.ply,
 sky.exr, checker.png, maps.xml's normals.png, roughness.png and bumps.png,
+grazing.xml's steep.png,
 and production.xml's cutout.png) and render each scene with Mitsuba 3
 itself into
 <scene>.ref.exr (the mean of PASSES independent renders) and
@@ -29,7 +30,8 @@ import mitsuba as mi
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-SCENES = ["cbox", "lights", "envmap", "instances", "spot", "maps", "production", "meaning"]
+SCENES = ["cbox", "lights", "envmap", "instances", "spot", "maps", "production", "meaning",
+          "grazing"]
 # Scenes rendered with `volpath` instead of their XML's `path`: Mitsuba
 # 3.9.1's `path` tests an emitter sample's visibility with every surface
 # opaque, so its shadow rays stop at a `mask`'s holes (while its BSDF samples
@@ -152,6 +154,16 @@ def maps_pngs():
             u, v = (x + 0.5) / 32, (y + 0.5) / 32
             b[y, x] = round(255 * (0.5 + 0.5 * math.sin(4 * math.pi * u) * math.cos(2 * math.pi * v)))
     png("bumps.png", b)
+    # grazing.xml's steep.png (16 x 16): tilts up to 56 degrees, so a low
+    # view falls below many mapped normals (flip_invalid_normals at work)
+    n = np.zeros((16, 16, 3))
+    for y in range(16):
+        for x in range(16):
+            sx = 1.2 * math.sin(2 * math.pi * (x + 0.5) / 16)
+            sy = 0.9 * math.cos(2 * math.pi * (y + 0.5) / 16)
+            v = np.array([sx, sy, 1.0])
+            n[y, x] = np.round(255 * (v / np.linalg.norm(v) + 1) / 2)
+    png("steep.png", n)
 
 
 def cutout_png():
