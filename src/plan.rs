@@ -16,7 +16,7 @@
 //! imports this module, never the other way round.
 
 use crate::bsdf::Bxdf;
-use crate::scene::{AlphaMask, EmissionRole, Scene};
+use crate::scene::{AlphaMask, Scene};
 use crate::settings::{IntegratorSettings, LIGHT_BVH_FROM, LightSampler};
 use std::fmt::Write;
 use std::str::FromStr;
@@ -481,7 +481,7 @@ impl Plan {
         roles.extend(
             used_materials
                 .iter()
-                .filter(|m| m.role == EmissionRole::SeenOnly && m.emission.max_element() > 0.0)
+                .filter(|m| m.is_seen_only())
                 .map(|m| format!("`{}` (emission seen only)", m.name)),
         );
         add(

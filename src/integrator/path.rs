@@ -192,6 +192,12 @@ struct Pending {
     contribution: Vec3,
 }
 
+/// The corner normals `c` blended at barycentrics `(u, v)`, not normalised.
+#[inline]
+fn interpolate(c: [Vec3; 3], u: f32, v: f32) -> Vec3 {
+    (1.0 - u - v) * c[0] + u * c[1] + v * c[2]
+}
+
 /// A placeholder ray for unused batch slots.
 const NO_RAY: Ray = Ray {
     o: Vec3::ZERO,
@@ -609,13 +615,11 @@ impl<'a> PathTracer<'a> {
         if !self.one_sided || !self.scene.material(its.prim).one_sided {
             return false;
         }
-        let front = match self.corner_normals(its.prim) {
-            Some(c) => {
-                let n = (1.0 - its.u - its.v) * c[0] + its.u * c[1] + its.v * c[2];
-                if n == Vec3::ZERO { its.sp.n } else { n }
-            }
-            None => its.sp.n,
-        };
+        let front = self
+            .corner_normals(its.prim)
+            .map(|c| interpolate(c, its.u, its.v))
+            .filter(|n| *n != Vec3::ZERO)
+            .unwrap_or(its.sp.n);
         its.wo.dot(front) <= 0.0
     }
 
@@ -624,9 +628,7 @@ impl<'a> PathTracer<'a> {
     /// normal (either side).
     fn unperturbed_normal(&self, its: &Interaction) -> Vec3 {
         self.corner_normals(its.prim)
-            .map(|c| {
-                ((1.0 - its.u - its.v) * c[0] + its.u * c[1] + its.v * c[2]).normalize_or_zero()
-            })
+            .map(|c| interpolate(c, its.u, its.v).normalize_or_zero())
             .filter(|n| *n != Vec3::ZERO)
             .unwrap_or(its.ng)
     }
@@ -674,8 +676,7 @@ impl<'a> PathTracer<'a> {
             None if !mapped => return ng,
             None => ng,
             Some(c) => {
-                let b0 = 1.0 - hit.u - hit.v;
-                let n = (b0 * c[0] + hit.u * c[1] + hit.v * c[2]).normalize_or_zero();
+                let n = interpolate(c, hit.u, hit.v).normalize_or_zero();
                 if n == Vec3::ZERO {
                     if !mapped {
                         return ng;

@@ -113,6 +113,11 @@ impl Material {
         self.emission.max_element() > 0.0 && self.role == EmissionRole::Light
     }
 
+    /// Whether the material emits with [`EmissionRole::SeenOnly`].
+    pub fn is_seen_only(&self) -> bool {
+        self.emission.max_element() > 0.0 && self.role == EmissionRole::SeenOnly
+    }
+
     /// A Lambertian material named `name` with `albedo`.
     pub fn diffuse(name: &str, albedo: Vec3) -> Self {
         Material {
@@ -585,20 +590,12 @@ impl Scene {
             .collect()
     }
 
-    /// Whether some material emits with a role other than
-    /// [`EmissionRole::Light`], or some light is a panel light: the
-    /// `emitter_roles` effect ([`crate::plan`]).
-    pub fn has_emitter_roles(&self) -> bool {
-        !self.panel_lights.is_empty() || self.seen_only_emitters()
-    }
-
     /// Whether the material of some primitive emits with
     /// [`EmissionRole::SeenOnly`].
     pub fn seen_only_emitters(&self) -> bool {
-        self.used_materials().iter().any(|&m| {
-            let m = &self.materials[m as usize];
-            m.role == EmissionRole::SeenOnly && m.emission.max_element() > 0.0
-        })
+        self.used_materials()
+            .iter()
+            .any(|&m| self.materials[m as usize].is_seen_only())
     }
 
     /// Whether any material of a primitive emits.
