@@ -123,7 +123,9 @@ impl<'a, 'i> Loader<'a, 'i> {
                 if let Some(why) = crate::scene::not_a_file(&full) {
                     return Err(self.fail(node, format!("envmap `{}` {why}", one_line(&file))));
                 }
-                scene.environment_map = Some(EnvironmentMap::load(&full, Vec3::splat(scale))?);
+                let map = EnvironmentMap::load(&full, Vec3::splat(scale))
+                    .map_err(|e| self.fail(node, format!("envmap: {e}")))?;
+                scene.environment_map = Some(map);
             }
             "area" => {
                 return Err(self.fail(node, "an area emitter belongs inside a <shape>"));

@@ -19,8 +19,8 @@
 //! `use_shadowing_function` is not modelled (a warning unless false) and
 //! `flip_invalid_normals` is read and ignored.
 
-use super::Loader;
 use super::params::{Params, Value};
+use super::{Loader, MAX_BSDF_NESTING};
 use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Masking, Microfacet, Plastic};
 use crate::error::{Error, Result, one_line};
 use crate::math::Vec3;
@@ -201,7 +201,31 @@ impl<'a, 'i> Loader<'a, 'i> {
         Ok(a)
     }
 
+    /// A `<bsdf>`, nested ones (`twosided`, `mask`, `bumpmap`,
+    /// `normalmap`) included. Nesting is bounded by [`MAX_BSDF_NESTING`] and a
+    /// BSDF that contains itself through a `<ref>` is refused, so no file can
+    /// recurse without end.
     pub(super) fn bsdf(&mut self, node: Node<'a, 'i>) -> Result<Material> {
+        if self.resolving.contains(&node.id()) {
+            let id = node.attribute("id").unwrap_or("");
+            return Err(self.fail(
+                node,
+                format!(
+                    "<bsdf id=\"{}\"> contains itself through a <ref>",
+                    one_line(id)
+                ),
+            ));
+        }
+        if self.resolving.len() >= MAX_BSDF_NESTING {
+            return Err(self.fail(node, format!("BSDFs nested deeper than {MAX_BSDF_NESTING}")));
+        }
+        self.resolving.push(node.id());
+        let m = self.bsdf_at(node);
+        self.resolving.pop();
+        m
+    }
+
+    fn bsdf_at(&mut self, node: Node<'a, 'i>) -> Result<Material> {
         if node.tag_name().name() != "bsdf" {
             return Err(self.fail(node, "expected a <bsdf>"));
         }

@@ -92,8 +92,16 @@ struct Loader<'a, 'i> {
     /// Loaded bitmaps by file and `raw` flag.
     textures: HashMap<(PathBuf, bool), Arc<ImageTexture>>,
     warnings: Vec<String>,
+    /// The BSDFs being read, outermost first: for the nesting bound and the
+    /// cycle check.
+    resolving: Vec<roxmltree::NodeId>,
     doc: &'a Document<'i>,
 }
+
+/// The deepest nesting of BSDFs a Mitsuba file may use. Real scenes nest two
+/// or three (a `twosided` around a `bumpmap` around a BSDF); the bound keeps
+/// a hostile file from overflowing the stack.
+pub(super) const MAX_BSDF_NESTING: usize = 64;
 
 /// Load a Mitsuba 3 scene file.
 pub fn load(path: &Path) -> Result<Scene> {
@@ -119,6 +127,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         groups: HashMap::new(),
         textures: HashMap::new(),
         warnings: Vec::new(),
+        resolving: Vec::new(),
         doc: &doc,
     };
     loader.scene()
