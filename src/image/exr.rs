@@ -46,6 +46,59 @@ fn exr_read_error(path: &Path, e: ::exr::error::Error) -> Error {
     }
 }
 
+/// The most an OpenEXR file's pixels may grow on decoding, as a multiple of
+/// the file's size. Deflate cannot expand more than about 1032 to 1
+/// (RFC 1951's longest match, 258 bytes, in two bits or so); the `exr`
+/// crate's coders reached at most 917 to 1 on a constant 2048 x 2048 image
+/// (ZIP16, this project's measurement). 4096 leaves room for any lossless
+/// writer, and keeps a 400-byte file from claiming gigabytes.
+pub(crate) const MAX_EXR_EXPANSION: u64 = 4096;
+
+/// Checks the sizes an OpenEXR file's headers claim, before any pixel is
+/// allocated: every layer within [`crate::limits::check_resolution`], no
+/// deep data, and pixels that the file's bytes can hold (at most
+/// [`MAX_EXR_EXPANSION`] times its length once decoded). Returns the first
+/// layer's data window: `(width, height, x, y)`.
+pub(crate) fn check_exr_sizes(path: &Path) -> Result<(usize, usize, i32, i32)> {
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let len = file.metadata().map_err(|e| Error::io(path, e))?.len();
+    let meta = ::exr::meta::MetaData::read_from_unbuffered(file, false)
+        .map_err(|e| exr_read_error(path, e))?;
+    let mut claimed: u64 = 0;
+    for h in &meta.headers {
+        let (w, ht) = (h.layer_size.width() as u64, h.layer_size.height() as u64);
+        crate::limits::check_resolution(w, ht)
+            .map_err(|m| Error::input(path, None, format!("its header's data window: {m}")))?;
+        if h.deep {
+            return Err(Error::input(
+                path,
+                None,
+                "deep OpenEXR data is not supported",
+            ));
+        }
+        claimed = claimed.saturating_add(h.total_pixel_bytes() as u64);
+    }
+    if claimed > len.saturating_mul(MAX_EXR_EXPANSION) {
+        return Err(Error::input(
+            path,
+            None,
+            format!(
+                "its headers claim {claimed} bytes of pixels, more than {MAX_EXR_EXPANSION} times its {len} bytes can hold: a damaged or forged file"
+            ),
+        ));
+    }
+    let Some(h) = meta.headers.first() else {
+        return Err(Error::input(path, None, "OpenEXR file has no header"));
+    };
+    let pos = h.own_attributes.layer_position;
+    Ok((
+        h.layer_size.width(),
+        h.layer_size.height(),
+        pos.x(),
+        pos.y(),
+    ))
+}
+
 /// Layer attributes naming embertrace as the software, with `metadata` as
 /// custom text attributes (names as [`check_exr_metadata`] admits them).
 pub(crate) fn exr_layer_attributes(metadata: &[(String, String)]) -> LayerAttributes {
@@ -112,6 +165,7 @@ pub(super) fn write_exr(path: &Path, film: &Rgb, metadata: &[(String, String)]) 
 pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
     use ::exr::prelude::{ReadChannels, ReadLayers, Vec2};
 
+    check_exr_sizes(path)?;
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
     let image = ::exr::prelude::read()
         .no_deep_data()
@@ -169,6 +223,7 @@ pub fn read_exr_metadata(path: &Path) -> Result<Vec<(String, String)>> {
 pub(crate) fn read_exr_channels(path: &Path) -> Result<Layer<AnyChannels<FlatSamples>>> {
     use ::exr::prelude::{ReadChannels, ReadLayers};
 
+    check_exr_sizes(path)?;
     let file = File::open(path).map_err(|e| Error::io(path, e))?;
     let image = ::exr::prelude::read()
         .no_deep_data()

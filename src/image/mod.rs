@@ -17,7 +17,9 @@ mod pfm;
 mod png;
 mod srgb;
 
-pub(crate) use self::exr::{exr_layer_attributes, read_exr_channels, write_exr_image};
+pub(crate) use self::exr::{
+    check_exr_sizes, exr_layer_attributes, read_exr_channels, write_exr_image,
+};
 pub use self::exr::{read_exr, read_exr_metadata};
 pub(crate) use atomic::write_atomically;
 pub use atomic::write_file_atomically;
@@ -108,6 +110,10 @@ pub fn check_output_path(path: &Path) -> Result<()> {
             "{}: is a directory, not an image file",
             path.display()
         )));
+    }
+    // a device or FIFO is written in place, with no temporary file
+    if atomic::is_special(path)? {
+        return Ok(());
     }
     // Probe: can we create the temporary file the real write will need? The
     // guard removes it again.
