@@ -64,6 +64,7 @@ pub mod image;
 pub mod integrator;
 pub mod light;
 pub mod limits;
+pub mod memory;
 pub mod outputs;
 pub mod plan;
 pub mod progressive;

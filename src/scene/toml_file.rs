@@ -1030,6 +1030,11 @@ pub fn load(path: &Path) -> Result<Scene> {
     )?;
     let text = String::from_utf8(bytes)
         .map_err(|_| Error::input(path, None, "not UTF-8 text (expected a TOML scene)"))?;
+    // the parser's tables cost far more than their text: refuse a file too
+    // large for this machine before building anything
+    crate::memory::toml_scene_estimate(&text)
+        .check()
+        .map_err(|m| Error::input(path, None, m))?;
     let file: SceneFile = toml::from_str(&text).map_err(|e| {
         let line = e.span().map(|s| line_of(&text, s.start));
         Error::input(path, line, e.message().trim().replace('\n', " "))
@@ -1347,7 +1352,10 @@ pub fn load(path: &Path) -> Result<Scene> {
                             "environment file `{f}` {why} (expected a .exr or .png next to the scene)"
                         )));
                     }
-                    scene.environment_map = Some(EnvironmentMap::load(&full, r)?);
+                    // the scene's line first, then what is wrong with the image
+                    let map = EnvironmentMap::load(&full, r)
+                        .map_err(|e| fail(format!("environment file `{f}`: {e}")))?;
+                    scene.environment_map = Some(map);
                 } else {
                     scene.environment = Some(scene.environment.unwrap_or(Vec3::ZERO) + r);
                 }
