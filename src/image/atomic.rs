@@ -72,10 +72,26 @@ impl Drop for TempFile {
 /// directory, which is flushed, synced and renamed over `path`. On any error
 /// (including one from `write`) the temporary file is removed and `path` is
 /// left as it was.
+///
+/// A target that exists and is not a regular file (a device such as
+/// `/dev/null` or `/dev/full`, a FIFO, a socket, or a link to one) cannot be
+/// replaced without destroying it: it is written in place, and its errors
+/// (`/dev/full`'s "no space left") are this write's.
 pub(crate) fn write_atomically<F>(path: &Path, write: F) -> Result<()>
 where
     F: FnOnce(&mut BufWriter<File>) -> Result<()>,
 {
+    if is_special(path)? {
+        let file = OpenOptions::new()
+            .write(true)
+            .open(path)
+            .map_err(|e| Error::io(path, e))?;
+        let mut w = BufWriter::new(file);
+        write(&mut w)?;
+        w.into_inner()
+            .map_err(|e| Error::io(path, e.into_error()))?;
+        return Ok(());
+    }
     let (mut tmp, file) = TempFile::create(path)?;
     let mut w = BufWriter::new(file);
     write(&mut w)?;
@@ -92,6 +108,19 @@ where
         let _ = dir.sync_all();
     }
     Ok(())
+}
+
+/// Whether `path` (its links followed) exists and is neither a regular file
+/// nor a directory: a target to write in place. A directory is an error.
+pub(super) fn is_special(path: &Path) -> Result<bool> {
+    match fs::metadata(path) {
+        Ok(m) if m.is_dir() => Err(Error::Settings(format!(
+            "{}: is a directory, not a file to write",
+            path.display()
+        ))),
+        Ok(m) => Ok(!m.is_file()),
+        Err(_) => Ok(false),
+    }
 }
 
 /// Writes `bytes` to `path` atomically: to a temporary file in the same
