@@ -28,7 +28,12 @@ pub struct MergeArgs {
     #[arg(long, value_name = "FILE")]
     variance: Option<PathBuf>,
     /// Exposure in stops, applied to PNG output.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        value_parser = crate::commands::parse_exposure
+    )]
     exposure: f32,
     /// Write a JSON report of the merge: the parts, time and peak memory.
     #[arg(long, value_name = "FILE")]

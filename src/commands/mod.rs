@@ -48,6 +48,17 @@ impl BuildArgs {
     }
 }
 
+/// `--exposure`: a finite number of stops, refused when the command line is
+/// read, before any work (NaN would otherwise be found only when the image
+/// is written).
+pub(crate) fn parse_exposure(s: &str) -> std::result::Result<f32, String> {
+    let v: f32 = s.parse().map_err(|e| format!("{e}"))?;
+    if !v.is_finite() {
+        return Err(format!("expected a finite number of stops, got {v}"));
+    }
+    Ok(v)
+}
+
 /// Write `value` as pretty JSON to `path`, atomically.
 pub(crate) fn write_json(path: &std::path::Path, value: &impl serde::Serialize) -> Result<()> {
     let text =

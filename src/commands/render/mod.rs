@@ -93,7 +93,12 @@ pub struct RenderArgs {
     #[arg(long, value_name = "FILE")]
     report: Option<PathBuf>,
     /// Exposure in stops, applied to PNG output.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        value_parser = crate::commands::parse_exposure
+    )]
     exposure: f32,
     #[command(flatten)]
     build: BuildArgs,
