@@ -268,7 +268,9 @@ fn convert_material(
                             "map_Kd `{name}` {why} (expected a .png or .exr next to the MTL file)"
                         )));
                     }
-                    let t = Arc::new(ImageTexture::load(&full)?);
+                    let t = ImageTexture::load(&full)
+                        .map_err(|e| fail(format!("map_Kd `{name}`: {e}")))?;
+                    let t = Arc::new(t);
                     textures.insert(name.clone(), t.clone());
                     t
                 }
