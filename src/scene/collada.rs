@@ -262,6 +262,50 @@ impl<'a, 'i> Loader<'a, 'i> {
             .collect())
     }
 
+    /// The numbers an `<accessor>` reads from its source's array `v`: `count`
+    /// elements of `stride` numbers from `offset` (COLLADA 1.4.1's
+    /// defaults: all of the array, stride 1, offset 0), with the stride. An
+    /// accessor that claims more than the array holds is an error at its
+    /// line; numbers past its elements are not part of the source.
+    fn accessed(&self, a: Node, v: Vec<f64>) -> Result<(Vec<f64>, usize)> {
+        let attr = |name: &str, default: usize| -> Result<usize> {
+            match a.attribute(name) {
+                None => Ok(default),
+                Some(x) => x.trim().parse::<usize>().map_err(|_| {
+                    self.fail(
+                        a,
+                        format!("<accessor> {name} `{}` is not a whole number", one_line(x)),
+                    )
+                }),
+            }
+        };
+        let stride = attr("stride", 1)?;
+        let offset = attr("offset", 0)?;
+        if stride == 0 {
+            return Err(self.fail(a, "<accessor> stride 0"));
+        }
+        let count = attr("count", v.len().saturating_sub(offset) / stride)?;
+        let end = count
+            .checked_mul(stride)
+            .and_then(|n| n.checked_add(offset))
+            .filter(|&end| end <= v.len())
+            .ok_or_else(|| {
+                self.fail(
+                    a,
+                    format!(
+                        "<accessor> claims {count} elements of {stride} numbers from offset {offset}; its array has {} numbers",
+                        v.len()
+                    ),
+                )
+            })?;
+        let v = if offset == 0 && end == v.len() {
+            v
+        } else {
+            v[offset..end].to_vec()
+        };
+        Ok((v, stride))
+    }
+
     fn need(&self, parent: Node<'a, 'i>, name: &str) -> Result<Node<'a, 'i>> {
         self.element(parent, name).ok_or_else(|| {
             self.fail(
@@ -578,12 +622,10 @@ impl<'a, 'i> Loader<'a, 'i> {
                     format!("<float_array> claims {count} numbers and has {}", v.len()),
                 ));
             }
-            let stride = self
-                .element(s, "technique_common/accessor")
-                .and_then(|a| a.attribute("stride"))
-                .and_then(|x| x.parse::<usize>().ok())
-                .unwrap_or(3)
-                .max(1);
+            let (v, stride) = match self.element(s, "technique_common/accessor") {
+                Some(a) => self.accessed(a, v)?,
+                None => (v, 3),
+            };
             sources.insert(id, (v, stride));
         }
         let vertices = self.need(mesh, "vertices")?;
