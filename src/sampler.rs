@@ -20,12 +20,12 @@
 //!   dimension pair, a randomised (0, m, 2)-net when their count is a power
 //!   of two `2^m`, and each point is uniformly distributed, so the estimator
 //!   stays unbiased. The index permutation is a nested uniform scramble of
-//!   the index's low `L` bits (Burley 2020), `2^L` the render's total sample
-//!   count rounded up to a power of two: the first `2^k` samples of a pixel
-//!   use one aligned block of Sobol indices in every dimension (a net at
-//!   every power of two), and a render in passes, or one that stops on a
-//!   time limit, draws the same points as one run with the same total
-//!   count.
+//!   all 32 bits of the index (Burley 2020's progressive shuffle): the
+//!   first `2^k` samples of a pixel use one aligned block of Sobol indices
+//!   in every dimension (a net at every power of two), and sample `i` is
+//!   the same point whatever the render's total, so a render in passes, one
+//!   that stops on a time limit, and one resumed from a checkpoint to more
+//!   samples all draw the points of one run.
 //! - `zsobol`: pbrt-v4's `ZSobolSampler` (Ahmed and Wonka 2020): the same
 //!   points, indexed along a Morton curve over the pixels, so neighbouring
 //!   pixels' errors spread as blue noise; the same error per pixel, at a
@@ -53,16 +53,15 @@ pub enum SamplerKind {
 
 impl SamplerKind {
     /// Whether renders of `a` and of `b` samples per pixel draw the same
-    /// points for the samples they share: always for `independent`; for the
-    /// Sobol samplers when `a` and `b` round up to the same power of two
-    /// (their index permutations span that many samples). A checkpoint may
-    /// be resumed to another spp only then.
+    /// points for the samples they share: always for `independent` and
+    /// `sobol` (whose shuffle spans every index); for `zsobol` when `a` and
+    /// `b` round up to the same power of two (its Morton layout spans that
+    /// many samples a pixel). A checkpoint may be resumed to another spp
+    /// only then.
     pub fn same_points(self, a: u32, b: u32) -> bool {
         match self {
-            SamplerKind::Independent => true,
-            SamplerKind::Sobol | SamplerKind::ZSobol => {
-                a.max(1).next_power_of_two() == b.max(1).next_power_of_two()
-            }
+            SamplerKind::Independent | SamplerKind::Sobol => true,
+            SamplerKind::ZSobol => a.max(1).next_power_of_two() == b.max(1).next_power_of_two(),
         }
     }
 
@@ -154,7 +153,6 @@ impl SampleSpace {
             SamplerKind::Independent => Seq::Independent,
             SamplerKind::Sobol => Seq::Sobol(Padded::new(
                 mix64(self.seed ^ mix64(pixel ^ 0x005e_ed0f_50b0)),
-                self.log2_spp,
                 sample,
             )),
             SamplerKind::ZSobol => Seq::ZSobol(ZOrder {
@@ -186,17 +184,12 @@ enum Seq {
 }
 
 /// The padded Sobol state of one sample: a hash of its seed and pixel, its
-/// index (split at the layout's `log2_spp` bits), and the dimension that
-/// comes next.
+/// index, and the dimension that comes next.
 #[derive(Debug, Clone, Copy)]
 struct Padded {
     base: u64,
-    /// The low `log2_spp` bits of the sample's index, bit-reversed.
+    /// The sample's index, bit-reversed.
     reversed: u32,
-    /// The bits of the index above `log2_spp` (samples past the layout).
-    high: u32,
-    /// The low `log2_spp` bits set.
-    mask: u32,
     dimension: u32,
 }
 
@@ -267,9 +260,9 @@ static SOBOL1_REVERSED: [[u32; 256]; 4] = {
     t
 };
 
-/// `sobol_dim1(i).reverse_bits()`, in two table lookups below `2^16` (a
-/// render's indices, but for zsobol's of images past 2^16 samples) and four
-/// above.
+/// `sobol_dim1(i).reverse_bits()`, in two table lookups below `2^16` (most
+/// of zsobol's indices) and four above (the padded sampler's shuffled
+/// indices, which span 32 bits).
 #[inline(always)]
 fn sobol_dim1_reversed(i: u32) -> u32 {
     let t = &SOBOL1_REVERSED;
@@ -317,30 +310,29 @@ fn fold(h: u64) -> u32 {
 }
 
 impl Padded {
-    /// Sample `index` of the pixel hashed to `base`, in a layout of
-    /// `2^log2_spp` samples.
-    fn new(base: u64, log2_spp: u32, index: u32) -> Self {
-        let mask = (1u64 << log2_spp).wrapping_sub(1) as u32;
+    /// Sample `index` of the pixel hashed to `base`. The shuffle spans all
+    /// 32 bits of the index, whatever the render's total, so a sample's
+    /// points do not depend on how many samples the render takes.
+    fn new(base: u64, index: u32) -> Self {
         Padded {
             base,
-            reversed: (index & mask).reverse_bits(),
-            high: index & !mask,
-            mask,
+            reversed: index.reverse_bits(),
             dimension: 0,
         }
     }
 
     /// The shuffled sample index and the scrambling hash for the next
-    /// dimension (or pair). The index's low `log2_spp` bits are shuffled by
-    /// a nested uniform scramble of their own (Burley, "Practical Hash-based
-    /// Owen Scrambling", JCGT 2020, section 5): the Laine-Karras hash on the
-    /// reversed bits flips each bit by a function of the bits above it,
-    /// under a seed per pixel and dimension. So every aligned block of
-    /// `2^k` indices lands on an aligned block, for every `k`: the first
-    /// `2^k` samples of a pixel are a scrambled net in every dimension pair,
-    /// and two dimensions' shuffles agree on which samples go together at
-    /// every scale. The bits above the layout (samples past it, none in a
-    /// render) are kept.
+    /// dimension (or pair). The index's 32 bits are shuffled by a nested
+    /// uniform scramble (Burley, "Practical Hash-based Owen Scrambling",
+    /// JCGT 2020, section 5: the progressive shuffle): the Laine-Karras hash
+    /// on the reversed bits flips each bit by a function of the bits above
+    /// it, under a seed per pixel and dimension. So every aligned block of
+    /// `2^k` indices lands on an aligned block of Sobol indices, for every
+    /// `k`: any first `2^k` samples of a pixel are a scrambled net in every
+    /// dimension pair, two dimensions' shuffles agree on which samples go
+    /// together at every scale, and sample `i` is the same point whether
+    /// the render takes 16 samples or 16 million, so a finished render can
+    /// be taken on to more samples with the bits of one run.
     #[inline]
     fn next(&mut self, width: u32) -> (u32, u64) {
         // `base` is a full hash of the seed and pixel already: one
@@ -351,8 +343,7 @@ impl Padded {
         // the hash's halves scramble the two coordinates; the shuffle's seed
         // is the high half of one more multiplication
         let seed = (hash.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 32) as u32;
-        let low = lk_hash(self.reversed, seed).reverse_bits() & self.mask;
-        (self.high | low, hash)
+        (lk_hash(self.reversed, seed).reverse_bits(), hash)
     }
 }
 
@@ -630,41 +621,41 @@ mod tests {
     }
 
     #[test]
-    fn padded_shuffles_are_bijections_that_keep_every_aligned_block() {
-        let shuffle = |base: u64, log2: u32, dimension: u32, i: u32| {
-            let mut p = Padded::new(base, log2, i);
+    fn padded_shuffles_map_every_prefix_and_aligned_block_onto_an_aligned_block() {
+        let shuffle = |base: u64, dimension: u32, i: u32| {
+            let mut p = Padded::new(base, i);
             p.dimension = dimension;
             p.next(2).0
         };
-        for log2 in 0..=10 {
-            for base in [0, 1, 0xdead_beef_1234_5678, u64::MAX] {
-                for dimension in [0, 2, 9] {
-                    let n = 1u32 << log2;
-                    let p: Vec<u32> = (0..n).map(|i| shuffle(base, log2, dimension, i)).collect();
-                    let mut sorted = p.clone();
-                    sorted.sort_unstable();
-                    assert_eq!(sorted, (0..n).collect::<Vec<_>>(), "log2 {log2}");
-                    // every aligned block of every power-of-two size lands on
-                    // an aligned block of that size
-                    for k in 0..=log2 {
+        for base in [0, 1, 0xdead_beef_1234_5678, u64::MAX] {
+            for dimension in [0, 2, 9] {
+                // the first 2^12 samples, and a block further on
+                for start in [0u32, 5 << 12, u32::MAX - 4095] {
+                    let p: Vec<u32> = (start..=start + 4095)
+                        .map(|i| shuffle(base, dimension, i))
+                        .collect();
+                    // every aligned block of every power-of-two size, the
+                    // whole run included, lands on an aligned block of that
+                    // size, one to one
+                    for k in 0..=12 {
                         let j = 1u32 << k;
                         for block in p.chunks(j as usize) {
-                            let lo = block.iter().min().unwrap();
-                            assert!(lo % j == 0 && block.iter().all(|x| x / j == lo / j));
+                            let lo = *block.iter().min().unwrap();
+                            assert_eq!(lo % j, 0, "base {base} dim {dimension} k {k}");
+                            let mut offs: Vec<u32> = block.iter().map(|x| x - lo).collect();
+                            offs.sort_unstable();
+                            assert_eq!(offs, (0..j).collect::<Vec<_>>());
                         }
-                    }
-                    // samples past the layout keep their high bits
-                    for i in [n, 3 * n + 1, u32::MAX] {
-                        let s = shuffle(base, log2, dimension, i);
-                        assert_eq!(s >> log2, i >> log2, "{i} -> {s}");
                     }
                 }
             }
         }
-        // the shuffle depends on the pixel's hash and on the dimension
-        let at = |base, dimension| (0..64).map(move |i| shuffle(base, 6, dimension, i));
+        // the shuffle depends on the pixel's hash and on the dimension, and
+        // leaves no index where it was (the first 64 fill one random block)
+        let at = |base, dimension| (0..64).map(move |i| shuffle(base, dimension, i));
         assert!(at(1, 0).ne(at(2, 0)));
         assert!(at(1, 0).ne(at(1, 2)));
+        assert!(at(1, 0).min().unwrap() >= 64 || at(2, 0).min().unwrap() >= 64);
     }
 
     #[test]
@@ -897,13 +888,13 @@ mod tests {
 
     #[test]
     fn sample_values_are_pinned() {
-        // the values of commit 7f7fa7c (`sobol`'s: of the commit that made
-        // its index shuffle a scramble of the index's bits): optimisations
-        // must keep every bit (reference images and resumed checkpoints
-        // depend on them)
+        // the values of commit 7f7fa7c (`sobol`'s: those since its index
+        // shuffle spans all 32 bits, issue 42): optimisations must keep every
+        // bit (reference images and resumed checkpoints depend
+        // on them)
         for (kind, digest) in [
             (SamplerKind::Independent, 0x584c_3d45_7171_3ffb),
-            (SamplerKind::Sobol, 0x5b61_5b45_1a44_b52c),
+            (SamplerKind::Sobol, 0xac66_38f1_1df9_327f),
             (SamplerKind::ZSobol, 0xf2c0_b5a8_3833_f882),
         ] {
             assert_eq!(stream_digest(kind), digest, "{kind}");

@@ -244,15 +244,13 @@ fn merge_refuses_parts_that_do_not_belong_together() {
 fn a_checkpointed_render_stopped_by_sigint_resumes_to_the_same_bits() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let common = [
-        "render", SCENE, "-q", "-r", "32", "32", "-s", "1024", "-m", "6",
-    ];
-    let mut one: Vec<&str> = common.to_vec();
-    one.extend_from_slice(&["-o", "one.exr"]);
-    ok(d, &one);
-    // start, wait for the first checkpoint, interrupt
+    let common = ["render", SCENE, "-q", "-r", "32", "32", "-m", "6"];
+    // a render that no machine finishes (2^24 samples of 1024 pixels): the
+    // interrupt always comes first, however many cores there are
     let mut args: Vec<&str> = common.to_vec();
     args.extend_from_slice(&[
+        "-s",
+        "16777216",
         "-o",
         "two.exr",
         "--checkpoint",
@@ -266,11 +264,16 @@ fn a_checkpointed_render_stopped_by_sigint_resumes_to_the_same_bits() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    // until the first checkpoint is written: no wall-clock bound, a loaded
-    // machine only makes the wait longer
+    // until the first checkpoint is written, within a bound far above the
+    // 0.05 s asked for (a loaded machine only makes the wait longer)
+    let start = std::time::Instant::now();
     while !d.join("ck.exr").exists() {
         if let Some(status) = child.try_wait().unwrap() {
             panic!("the render ended ({status}) before its first checkpoint");
+        }
+        if start.elapsed().as_secs() > 300 {
+            child.kill().unwrap();
+            panic!("no checkpoint after 300 s");
         }
         std::thread::sleep(std::time::Duration::from_millis(5));
     }
@@ -289,18 +292,24 @@ fn a_checkpointed_render_stopped_by_sigint_resumes_to_the_same_bits() {
     );
     assert!(!d.join("two.exr").exists(), "no partial image");
     let (_, prov) = farm::read_accumulation(&d.join("ck.exr")).unwrap();
-    assert!(prov.samples.end < 1024, "{:?}", prov.samples);
-    // resume: the same bits as the uninterrupted render
+    assert_eq!(prov.samples.start, 0);
+    // resume to a total past what was saved (the default sampler's points
+    // do not depend on the total): the bits of one uninterrupted render
+    let total = (prov.samples.end + 7).to_string();
+    let mut one: Vec<&str> = common.to_vec();
+    one.extend_from_slice(&["-s", &total, "-o", "one.exr"]);
+    ok(d, &one);
     let mut resume: Vec<&str> = common.to_vec();
-    resume.extend_from_slice(&["-o", "two.exr", "--resume", "ck.exr"]);
+    resume.extend_from_slice(&["-s", &total, "-o", "two.exr", "--resume", "ck.exr"]);
     ok(d, &resume);
     assert_eq!(pixels(&d.join("two.exr")), pixels(&d.join("one.exr")));
     // the checkpoint now holds every sample
+    let n: u32 = total.parse().unwrap();
     let (_, prov) = farm::read_accumulation(&d.join("ck.exr")).unwrap();
-    assert_eq!(prov.samples, 0..1024);
+    assert_eq!(prov.samples, 0..n);
     // with a checkpoint, -o .exr is the state too: merge takes it alone
     let (_, prov) = farm::read_accumulation(&d.join("two.exr")).unwrap();
-    assert_eq!(prov.samples, 0..1024);
+    assert_eq!(prov.samples, 0..n);
     assert_eq!(
         merged(d, &["two.exr"], "three.exr"),
         pixels(&d.join("one.exr"))
@@ -320,14 +329,73 @@ fn resume_refuses_another_scene_setting_or_spp_the_sampler_depends_on() {
         args.extend_from_slice(extra);
         run(d, &args)
     };
-    // sobol's points for 10 spp span 16: resuming to 12 is fine, to 20 not
-    let out = resume(&["-s", "20"]);
-    assert_eq!(out.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("spp = 10, not 20"));
     let out = resume(&["-s", "10", "--seed", "3"]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("seed"));
     assert!(!d.join("b.png").exists());
-    assert!(resume(&["-s", "12"]).status.success());
+    // zsobol's Morton layout for 10 spp spans 16 samples a pixel: resuming
+    // to 12 is fine, to 20 not
+    render(
+        d,
+        "z.png",
+        &["--checkpoint", "zk.exr", "--sampler", "zsobol"],
+    );
+    let zresume = |spp: &str| {
+        run(
+            d,
+            &[
+                "render",
+                SCENE,
+                "-q",
+                "-r",
+                RES[0],
+                RES[1],
+                "-m",
+                "6",
+                "-o",
+                "zb.png",
+                "--resume",
+                "zk.exr",
+                "--sampler",
+                "zsobol",
+                "-s",
+                spp,
+            ],
+        )
+    };
+    let out = zresume("20");
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("spp = 10, not 20"));
+    assert!(!d.join("zb.png").exists());
+    assert!(zresume("12").status.success());
+    // the default sampler's points do not depend on the total: any larger
+    // spp resumes
+    assert!(resume(&["-s", "20"]).status.success());
+}
+
+#[test]
+fn a_finished_16_spp_render_resumes_to_64_with_the_bits_of_one_64_spp_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // default flags but for size: the default sampler
+    let base = ["render", SCENE, "-q", "-r", RES[0], RES[1]];
+    let with = |extra: &[&str]| {
+        let mut a = base.to_vec();
+        a.extend_from_slice(extra);
+        ok(d, &a);
+    };
+    with(&["-s", "16", "--checkpoint", "ck.exr", "-o", "sixteen.exr"]);
+    with(&["-s", "64", "--resume", "ck.exr", "-o", "resumed.exr"]);
+    with(&["-s", "64", "-o", "one.exr"]);
+    assert_eq!(pixels(&d.join("resumed.exr")), pixels(&d.join("one.exr")));
+    // a 16-spp render's samples are the 64-spp render's first 16 (its
+    // first shard of four), sum for sum
+    with(&["-s", "64", "--shard", "1/4", "-o", "first.exr"]);
+    with(&["-s", "16", "--checkpoint", "ck16.exr", "-o", "again.exr"]);
+    let (first, prov) = farm::read_accumulation(&d.join("first.exr")).unwrap();
+    assert_eq!(prov.samples, 0..16);
+    let (sixteen, _) = farm::read_accumulation(&d.join("ck16.exr")).unwrap();
+    let sums = |f: &embertrace::film::Film| f.pixels().iter().map(|p| p.sum).collect::<Vec<_>>();
+    assert_eq!(sums(&first), sums(&sixteen));
 }
 
 #[test]
