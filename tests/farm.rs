@@ -373,6 +373,73 @@ fn resume_refuses_another_scene_setting_or_spp_the_sampler_depends_on() {
 }
 
 #[test]
+fn sample_ranges_rendered_at_different_totals_merge_to_the_one_run_bits() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let base = ["render", SCENE, "-q", "-r", RES[0], RES[1]];
+    let with = |extra: &[&str]| {
+        let mut a = base.to_vec();
+        a.extend_from_slice(extra);
+        ok(d, &a);
+    };
+    // samples 0..16 first, as a finished 16-spp render; 16..64 later, as
+    // three shards of a 64-spp render
+    with(&["-s", "16", "--checkpoint", "early.exr", "-o", "early.png"]);
+    for k in 2..=4 {
+        let shard = format!("{k}/4");
+        let out = format!("late{k}.exr");
+        with(&["-s", "64", "--shard", &shard, "-o", &out]);
+    }
+    with(&["-s", "64", "-o", "one.exr"]);
+    let parts = ["late3.exr", "early.exr", "late4.exr", "late2.exr"];
+    assert_eq!(merged(d, &parts, "all.exr"), pixels(&d.join("one.exr")));
+    let (_, prov) = farm::read_accumulation(&d.join("early.exr")).unwrap();
+    assert_eq!(prov.spp(), Some(16));
+    // without the late shards, the 16-spp render is whole by itself; with
+    // two of three, samples 48..64 are missing from the 64-spp render
+    let out = run(
+        d,
+        &[
+            "merge",
+            "early.exr",
+            "late2.exr",
+            "late3.exr",
+            "-o",
+            "x.exr",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no part holds sample 48"), "{err}");
+    // zsobol's points depend on the total: its parts do not merge across
+    // totals
+    with(&[
+        "-s",
+        "16",
+        "--sampler",
+        "zsobol",
+        "--checkpoint",
+        "z16.exr",
+        "-o",
+        "z.png",
+    ]);
+    with(&[
+        "-s",
+        "64",
+        "--sampler",
+        "zsobol",
+        "--shard",
+        "2/4",
+        "-o",
+        "z64.exr",
+    ]);
+    let out = run(d, &["merge", "z16.exr", "z64.exr", "-o", "zz.exr"]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("spp = 64, not 16"), "{err}");
+}
+
+#[test]
 fn a_finished_16_spp_render_resumes_to_64_with_the_bits_of_one_64_spp_run() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

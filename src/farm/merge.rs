@@ -6,6 +6,7 @@ use super::{Provenance, check_pixels_match, read_accumulation, window_array};
 use crate::error::{Error, Result};
 use crate::film::{Film, TileBounds};
 use crate::image::read_exr_metadata;
+use crate::sampler::SamplerKind;
 use std::path::PathBuf;
 
 /// One part as `merge` saw it.
@@ -70,9 +71,11 @@ pub fn peak_memory_bytes() -> u64 {
 }
 
 /// Merge accumulation files, in any order. Every part must come from the
-/// same scene, version and settings; no two may hold the same sample of the
-/// same pixel; together they must fill a box of pixels and samples exactly,
-/// and, unless `partial`, the whole render (every pixel, samples `0..spp`).
+/// same scene, version and settings (but `spp`, where the sampler draws the
+/// same points whatever the total: the merge then takes the largest); no
+/// two may hold the same sample of the same pixel; together they must fill
+/// a box of pixels and samples exactly, and, unless `partial`, the whole
+/// render (every pixel, samples `0..spp`).
 /// Returns the merged film, its provenance and a report; fails with a
 /// one-line message naming the part at fault.
 pub fn merge(parts: &[PathBuf], partial: bool) -> Result<(Film, Provenance, MergeReport)> {
@@ -91,7 +94,24 @@ pub fn merge(parts: &[PathBuf], partial: bool) -> Result<(Film, Provenance, Merg
         provs.push(prov);
     }
     let (first, p0) = (&parts[0], &provs[0]);
-    let s0 = p0.sorted_settings();
+    // parts rendered at different times may ask for different totals where
+    // the sampler's points do not depend on the total: the merge then holds
+    // the largest, and each part's samples are those of that render
+    let extends = |p: &Provenance| {
+        let kind = |p: &Provenance| p.setting("sampler")?.parse::<SamplerKind>().ok();
+        match (kind(p), kind(p0), p.spp(), p0.spp()) {
+            (Some(k), Some(k0), Some(a), Some(b)) => k == k0 && k.same_points(a, b),
+            _ => false,
+        }
+    };
+    let spp_free = |p: &Provenance| {
+        let mut s = p.sorted_settings();
+        if extends(p) {
+            s.retain(|(n, _)| n != "spp");
+        }
+        s
+    };
+    let s0 = spp_free(p0);
     for (path, p) in parts.iter().zip(&provs).skip(1) {
         let at_fault = |what: String| {
             Error::Settings(format!(
@@ -109,7 +129,11 @@ pub fn merge(parts: &[PathBuf], partial: bool) -> Result<(Film, Provenance, Merg
                 p.scene, p.scene_hash
             )));
         }
-        let s = p.sorted_settings();
+        let (s, s0) = if extends(p) {
+            (spp_free(p), s0.clone())
+        } else {
+            (p.sorted_settings(), p0.sorted_settings())
+        };
         if s != s0 {
             let differs = s
                 .iter()
@@ -154,7 +178,11 @@ pub fn merge(parts: &[PathBuf], partial: bool) -> Result<(Film, Provenance, Merg
     }
     let filled: u128 = boxes.iter().map(volume).sum();
     let res = p0.resolution().expect("checked when read");
-    let spp = p0.spp().expect("checked when read");
+    let spp = provs
+        .iter()
+        .map(|p| p.spp().expect("checked when read"))
+        .max()
+        .expect("one part at least");
     let whole = [
         [0, u64::from(res[0])],
         [0, u64::from(res[1])],
@@ -198,11 +226,16 @@ pub fn merge(parts: &[PathBuf], partial: bool) -> Result<(Film, Provenance, Merg
             read_seconds: t.elapsed().as_secs_f64(),
         });
     }
-    let prov = Provenance {
+    let mut prov = Provenance {
         samples: bound[2][0] as u32..bound[2][1] as u32,
         window,
         ..p0.clone()
     };
+    for (n, v) in &mut prov.settings {
+        if n == "spp" {
+            *v = spp.to_string();
+        }
+    }
     let report = MergeReport {
         parts: infos,
         window: window_array(window),
