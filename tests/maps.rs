@@ -220,11 +220,7 @@ fn the_plan_names_each_textured_parameter_and_general_is_bit_identical() {
 fn a_textured_roughness_varies_the_highlight() {
     // smooth on the left half, rough on the right: the images differ from
     // both constants, and the plan sees the delta lobe of the smooth texels
-    let half = png(
-        2,
-        1,
-        |x, _| if x == 0 { [0, 0, 0] } else { [128, 128, 128] },
-    );
+    let half = png(4, 1, |x, _| if x < 2 { [0, 0, 0] } else { [128, 128, 128] });
     let files = [("q.obj", QUAD.as_bytes().to_vec()), ("h.png", half)];
     let scene = load(
         &quad_scene(r#"{ type = "conductor", alpha = { texture = "h.png" } }"#),
@@ -232,21 +228,78 @@ fn a_textured_roughness_varies_the_highlight() {
     );
     let plan = Plan::new(&scene, &IntegratorSettings::default());
     assert!(plan.kernel.delta, "a smooth texel is a delta lobe");
+    // the image: where a pixel sees one texel only, it is the render of
+    // that texel's constant, bit for bit (the quad reflects into the
+    // environment only, so a pixel depends on its own texel), and the two
+    // constants' highlights differ there
+    let smooth = load(
+        &quad_scene(r#"{ type = "conductor", alpha = 0.0 }"#),
+        &files,
+    );
+    let rough = load(
+        &quad_scene(r#"{ type = "conductor", alpha = 0.5019608 }"#),
+        &files,
+    );
+    assert_halves_match(&scene, &smooth, &rough);
+}
+
+/// The quad spans u = 0.1 to 0.9 across the 16 columns, 0.0502 a column; a
+/// 4 x 1 texture of two left texels and two right ones (wrapped, bilinear)
+/// is the left value alone for u in [0.125, 0.375] (columns 1 to 4) and the
+/// right value alone in [0.625, 0.875] (columns 11 to 14). There, `textured`
+/// renders what `left` and `right` render (same seed, same paths), and those
+/// two differ by far more. Not bit for bit: the bilinear blend of equal
+/// texels rounds in the last place, and a mirror's roughness of 0 blended
+/// to 1e-9 is a very sharp lobe, not a delta one.
+fn assert_halves_match(textured: &Scene, left: &Scene, right: &Scene) {
+    let backend = Backend::default_backend();
+    let (t, a, b) = (
+        render_with(textured, backend, None, 16),
+        render_with(left, backend, None, 16),
+        render_with(right, backend, None, 16),
+    );
+    let mean = |out: &RenderOutput, xs: std::ops::RangeInclusive<usize>| {
+        let rgb = out.film.to_rgb_f32();
+        let n = 16 * xs.clone().count() * 3;
+        (0..16)
+            .flat_map(|y| {
+                xs.clone()
+                    .flat_map(move |x| (0..3).map(move |c| 3 * (16 * y + x) + c))
+            })
+            .map(|i| f64::from(rgb[i]))
+            .sum::<f64>()
+            / n as f64
+    };
+    for (xs, same, other, side) in [(1..=4, &a, &b, "left"), (11..=14, &b, &a, "right")] {
+        let (got, want, far) = (
+            mean(&t, xs.clone()),
+            mean(same, xs.clone()),
+            mean(other, xs),
+        );
+        eprintln!("{side}: textured {got:.5}, its constant {want:.5}, the other {far:.5}");
+        // measured: the textured means equal their constants' to 5 digits;
+        // the plastic's constants differ by 3.5 %, the conductor's by 80 %
+        assert!((got - want).abs() < 0.001 * want, "{side}: {got} vs {want}");
+        assert!(
+            (far - want).abs() > 0.02 * want,
+            "{side}: the constants differ: {far} vs {want}"
+        );
+    }
 }
 
 #[test]
 fn a_textured_plastic_roughness_renders_between_its_constants() {
     // a plastic whose roughness texture is 0.1 on the left half and 0.4 on
-    // the right: the image differs from both constants, and each half's
-    // mean lies near the constant's (the coat table interpolates between
-    // levels; the texels away from the seam are exact level values)
-    let half = png(2, 1, |x, _| {
-        if x == 0 {
-            [26, 26, 26]
-        } else {
-            [102, 102, 102]
-        }
-    });
+    // the right: each half renders as its constant does (the coat table
+    // interpolates between levels; the texels away from the seam are exact
+    // level values)
+    let half = png(
+        4,
+        1,
+        |x, _| {
+            if x < 2 { [26, 26, 26] } else { [102, 102, 102] }
+        },
+    );
     let files = [("q.obj", QUAD.as_bytes().to_vec()), ("h.png", half)];
     let m = |alpha: &str| {
         format!(r#"{{ type = "plastic", diffuse = [0.6, 0.3, 0.2], alpha = {alpha} }}"#)
@@ -254,14 +307,7 @@ fn a_textured_plastic_roughness_renders_between_its_constants() {
     let textured = load(&quad_scene(&m(r#"{ texture = "h.png" }"#)), &files);
     let smooth = load(&quad_scene(&m("0.10196078")), &files);
     let rough = load(&quad_scene(&m("0.4")), &files);
-    let backend = Backend::default_backend();
-    let (t, a, b) = (
-        render_with(&textured, backend, None, 4),
-        render_with(&smooth, backend, None, 4),
-        render_with(&rough, backend, None, 4),
-    );
-    assert_ne!(bits(&t), bits(&a));
-    assert_ne!(bits(&t), bits(&b));
+    assert_halves_match(&textured, &smooth, &rough);
     let plan = Plan::new(&textured, &IntegratorSettings::default());
     assert!(plan.on().contains(&"texture"));
 }
@@ -327,12 +373,31 @@ fn an_emission_texture_is_seen_and_sampled_at_the_uv() {
         embertrace::math::Vec3::splat(0.5)
     );
     for backend in Backend::available() {
-        let out = render_with(&scene, backend, None, 2);
+        let out = render_with(&scene, backend, None, 64);
         let rgb = out.film.to_rgb_f32();
-        // row 8, columns 5 (u about 0.375: 0.25 bilinear) and 10 (0.625: 0.75)
-        let at = |x: usize| rgb[3 * (8 * 16 + x)];
-        assert!(at(10) > at(5) + 0.4, "{backend}: {} vs {}", at(10), at(5));
-        let general = render_with(&scene, backend, Some(Kernel::GENERAL), 2);
+        // every pixel sees the emission at its u, black diffuse adding
+        // nothing: the wrapped bilinear texture is the triangle wave
+        // 1 - 2 d(u, 0.75) (d the distance on the circle), linear across each
+        // pixel, whose box average is its value at the pixel's centre. The
+        // quad's u = (X + 1) / 2 and the screen's half-width at the quad is
+        // 3 tan 15 degrees. Band: a pixel spans 0.0502 in u, so a sample's
+        // value has sd 2 x 0.0502 / sqrt(12) = 0.029, 0.0036 over 64
+        // samples: 5 sd is 0.018
+        let half = 3.0 * 15f64.to_radians().tan();
+        for y in 0..16 {
+            for x in 0..16 {
+                let screen = (2.0 * (x as f64 + 0.5) / 16.0 - 1.0) * half;
+                let u = (screen + 1.0) / 2.0;
+                let d = (u - 0.75).abs().min(1.0 - (u - 0.75).abs());
+                let expect = 1.0 - 2.0 * d;
+                let got = f64::from(rgb[3 * (16 * y + x)]);
+                assert!(
+                    (got - expect).abs() < 0.018,
+                    "{backend}: pixel ({x}, {y}) at u {u:.3}: {got} vs {expect}"
+                );
+            }
+        }
+        let general = render_with(&scene, backend, Some(Kernel::GENERAL), 64);
         assert_eq!(bits(&out), bits(&general));
     }
 }
