@@ -418,3 +418,85 @@ fn toml_instances_place_the_named_mesh_by_its_own_transform_then_theirs() {
         "instances run the kernel with shape dispatch"
     );
 }
+
+#[test]
+fn instanced_emitters_are_weighed_as_placed_copies_and_found_with_their_density() {
+    // an emissive rock of 80 triangles placed three times, as instances and
+    // as copies: each placement is chosen with the same probability (power
+    // by area; the copies pair some triangles into quad lights, the
+    // instances do not, so the lights themselves differ), and the density
+    // `pdf_area` gives an instanced point found by a ray along a light
+    // sample is the one the sample carried
+    let mut mesh = rock(80, 0.0);
+    for m in &mut mesh.materials {
+        m.emission = Vec3::new(2.0, 1.0, 0.5);
+    }
+    let per = mesh.indices.len() as u32;
+    let maps = &maps()[..3];
+    let placed = scene_of(&mesh, maps, false);
+    let instanced = scene_of(&mesh, maps, true);
+    // selection by power for the weights (the light BVH's choice depends on
+    // how the lights cluster, which the quads change); the default (the
+    // BVH, from 64 lights) for the densities as well
+    use embertrace::integrator::Lights;
+    use embertrace::settings::LightSampler;
+    let (lp, li) = (
+        Lights::with_sampler(&placed, LightSampler::Power),
+        Lights::with_sampler(&instanced, LightSampler::Power),
+    );
+    let li_bvh = Lights::new(&instanced);
+    assert!(li_bvh.uses_bvh());
+    assert_eq!(li.area_lights().len(), 3 * per as usize);
+    let acc = accel::build(Backend::Bvh, instanced.soup(), AccelOptions::default()).unwrap();
+    let mut s = Sampler::new(11, 0, 0);
+    let mut found = 0;
+    for _ in 0..300 {
+        let from = embertrace::math::SurfacePoint {
+            p: 0.5 * square_to_uniform_sphere(s.next_2d()),
+            p_err: Vec3::ZERO,
+            n: square_to_uniform_sphere(s.next_2d()),
+        };
+        // the probability of each placement
+        let by_copy = |lights: &embertrace::integrator::Lights, copy: &dyn Fn(u32) -> usize| {
+            let pmf = lights.selection_pmfs(&from);
+            let mut sum = [0.0f64; 3];
+            for (l, p) in lights.area_lights().iter().zip(&pmf) {
+                sum[copy(l.prim)] += f64::from(*p);
+            }
+            sum
+        };
+        let a = by_copy(&lp, &|prim| (prim / per) as usize);
+        let b = by_copy(&li, &|prim| instanced.instanced(prim).unwrap().0);
+        for k in 0..3 {
+            assert!(
+                (a[k] - b[k]).abs() <= 1e-4 * a[k].max(b[k]),
+                "copy {k}: {a:?} vs {b:?}"
+            );
+        }
+        assert!((a.iter().sum::<f64>() - 1.0).abs() < 1e-5);
+        // a light sample, found again, under either selection
+        let (u_select, u) = (s.next_1d(), s.next_2d());
+        for lights in [&li, &li_bvh] {
+            let Some(ls) = lights.sample(&instanced, &from, u_select, u) else {
+                continue;
+            };
+            let Some(h) = acc.intersect(&Ray::new(from.p, ls.wi)) else {
+                continue;
+            };
+            let to = instanced.surface_point(h.prim, h.u, h.v);
+            let pdf = lights.pdf_area(&from, h.prim, &to);
+            assert!(pdf > 0.0, "an instanced emitter has density 0");
+            // the ray finds the sampled point unless another triangle of
+            // the rock lies in front of it
+            if h.t >= 0.999 * ls.shadow.t_max {
+                found += 1;
+                assert!(
+                    (pdf - ls.pdf).abs() <= 1e-3 * ls.pdf,
+                    "pdf_area {pdf} against the sample's {}",
+                    ls.pdf
+                );
+            }
+        }
+    }
+    assert!(found > 200, "{found} sampled points found again");
+}

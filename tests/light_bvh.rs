@@ -264,3 +264,123 @@ fn auto_picks_the_bvh_from_the_threshold_and_power_below_it() {
     let plan = Plan::new(&bundled, &IntegratorSettings::default());
     assert!(plan.on().contains(&"many_lights"), "{:?}", plan.on());
 }
+
+#[test]
+fn the_bvh_gives_every_light_that_can_contribute_a_positive_probability() {
+    // brute force: from 3000 random shading points (in and around the
+    // lights, random normals), every light that reaches the point's upper
+    // hemisphere with its front side must be chosen with probability > 0.
+    // A triangle reaches it where one of its corners is above the shading
+    // plane and the point is on its emitting side; a sphere where its
+    // nearest point to the plane's upper side is above it; a point or spot
+    // light where it lies above the plane and (a spot) the point is inside
+    // its cutoff cone, as its own `sample_li` says. A third of the points
+    // lie in a 45-degree cone around the spot's axis (its cutoff is 40), so
+    // points inside and just outside its cone are both drawn.
+    let scene = many_light_scene();
+    let lights = Lights::with_sampler(&scene, LightSampler::Bvh);
+    let area = lights.area_lights();
+    let n_area = area.len();
+    let mut s = Sampler::new(8, 0, 0);
+    let mut checked = [0usize; 3];
+    let spot = &scene.spot_lights[0];
+    let (axis, side) = (spot.axis(), spot.axis().cross(Vec3::X).normalize());
+    for k in 0..3000 {
+        let u = s.next_2d();
+        let p = if k % 3 == 0 {
+            // around the spot's cone (to 45 degrees, past its 40-degree
+            // cutoff), 0.2 to 3 away
+            let cos = 1.0 - u.x * (1.0 - 45f32.to_radians().cos());
+            let sin = (1.0 - cos * cos).sqrt();
+            let phi = u.y * std::f32::consts::TAU;
+            let ring = side * phi.cos() + axis.cross(side) * phi.sin();
+            spot.position + (0.2 + 2.8 * s.next_1d()) * (axis * cos + ring * sin)
+        } else {
+            Vec3::new(12.0 * u.x - 6.0, 3.0 * s.next_1d(), 12.0 * u.y - 6.0)
+        };
+        let n = embertrace::sampling::square_to_uniform_sphere(s.next_2d());
+        let from = at(p, n);
+        let pmf = lights.selection_pmfs(&from);
+        for (i, light) in area.iter().enumerate() {
+            let reaches = match light.shape {
+                embertrace::light::Emitter::Sphere { center, radius } => {
+                    n.dot(center - p) + radius > 0.0
+                }
+                _ => {
+                    let v = scene.triangle(light.prim);
+                    let front = scene.surface_point(light.prim, 1.0 / 3.0, 1.0 / 3.0).n;
+                    (light.two_sided || front.dot(p - v[0]) > 0.0)
+                        && v.iter().any(|&c| n.dot(c - p) > 0.0)
+                }
+            };
+            if reaches {
+                checked[0] += 1;
+                assert!(
+                    pmf[i] > 0.0,
+                    "area light {i} reaches {p} (n {n}) but has pmf 0"
+                );
+            }
+        }
+        for (j, l) in scene.point_lights.iter().enumerate() {
+            if l.sample_li(&from)
+                .is_some_and(|d| n.dot(d.wi) > 0.0 && d.li.max_element() > 0.0)
+            {
+                checked[1] += 1;
+                assert!(
+                    pmf[n_area + j] > 0.0,
+                    "point light reaches {p} but has pmf 0"
+                );
+            }
+        }
+        let first_spot = n_area + scene.point_lights.len();
+        for (j, l) in scene.spot_lights.iter().enumerate() {
+            if l.sample_li(&from)
+                .is_some_and(|d| n.dot(d.wi) > 0.0 && d.li.max_element() > 0.0)
+            {
+                checked[2] += 1;
+                assert!(
+                    pmf[first_spot + j] > 0.0,
+                    "spot light reaches {p} (n {n}) but has pmf 0"
+                );
+            }
+        }
+    }
+    // each kind was put to the test many times
+    println!("checked (area, point, spot): {checked:?}");
+    assert!(checked.iter().all(|&c| c > 200), "{checked:?}");
+}
+
+#[test]
+fn points_just_inside_the_spot_cone_are_reachable_and_just_outside_get_nothing() {
+    // the spot at (-1, 2, 2) aimed at (-1, 0, 1.5), cutoff 40 degrees: on a
+    // ring of directions at 39.9 and 40.1 degrees from its axis, at distance
+    // 1.5, with the shading normal facing the light
+    let scene = many_light_scene();
+    let lights = Lights::with_sampler(&scene, LightSampler::Bvh);
+    let spot = &scene.spot_lights[0];
+    let index = lights.area_lights().len() + scene.point_lights.len();
+    let axis = spot.axis();
+    let side = axis.cross(Vec3::X).normalize();
+    let up = axis.cross(side);
+    for k in 0..36 {
+        let phi = k as f32 * std::f32::consts::TAU / 36.0;
+        let ring = side * phi.cos() + up * phi.sin();
+        for (deg, inside) in [(39.9f32, true), (40.1, false)] {
+            let t = deg.to_radians();
+            let d = axis * t.cos() + ring * t.sin();
+            let p = spot.position + 1.5 * d;
+            let from = at(p, -d);
+            let li = spot.sample_li(&from).map_or(Vec3::ZERO, |s| s.li);
+            let pmf = lights.selection_pmfs(&from)[index];
+            if inside {
+                assert!(
+                    li.max_element() > 0.0,
+                    "{deg} degrees: no light inside the cutoff"
+                );
+                assert!(pmf > 0.0, "{deg} degrees, phi {phi}: pmf 0 inside the cone");
+            } else {
+                assert_eq!(li, Vec3::ZERO, "{deg} degrees: light outside the cutoff");
+            }
+        }
+    }
+}
