@@ -372,16 +372,19 @@ fn resume_refuses_another_scene_setting_or_spp_the_sampler_depends_on() {
     assert!(resume(&["-s", "20"]).status.success());
 }
 
+/// Render the scene at default flags but for its size (the default sampler),
+/// with `extra`.
+fn at_default_flags(d: &Path, extra: &[&str]) {
+    let mut a = vec!["render", SCENE, "-q", "-r", RES[0], RES[1]];
+    a.extend_from_slice(extra);
+    ok(d, &a);
+}
+
 #[test]
 fn sample_ranges_rendered_at_different_totals_merge_to_the_one_run_bits() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let base = ["render", SCENE, "-q", "-r", RES[0], RES[1]];
-    let with = |extra: &[&str]| {
-        let mut a = base.to_vec();
-        a.extend_from_slice(extra);
-        ok(d, &a);
-    };
+    let with = |extra: &[&str]| at_default_flags(d, extra);
     // samples 0..16 first, as a finished 16-spp render; 16..64 later, as
     // three shards of a 64-spp render
     with(&["-s", "16", "--checkpoint", "early.exr", "-o", "early.png"]);
@@ -443,13 +446,7 @@ fn sample_ranges_rendered_at_different_totals_merge_to_the_one_run_bits() {
 fn a_finished_16_spp_render_resumes_to_64_with_the_bits_of_one_64_spp_run() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    // default flags but for size: the default sampler
-    let base = ["render", SCENE, "-q", "-r", RES[0], RES[1]];
-    let with = |extra: &[&str]| {
-        let mut a = base.to_vec();
-        a.extend_from_slice(extra);
-        ok(d, &a);
-    };
+    let with = |extra: &[&str]| at_default_flags(d, extra);
     with(&["-s", "16", "--checkpoint", "ck.exr", "-o", "sixteen.exr"]);
     with(&["-s", "64", "--resume", "ck.exr", "-o", "resumed.exr"]);
     with(&["-s", "64", "-o", "one.exr"]);

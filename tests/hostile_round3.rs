@@ -409,47 +409,39 @@ fn merge_refuses_forged_windows_and_sample_counts_before_allocating() {
         let out = run(d, &["merge", part, "-o", "out.png"]);
         one_line_error(d, &out, part)
     };
-    // a window of 16384 x 16384 pixels (28 GB of accumulators once merged,
-    // at 104 bytes a pixel) over a file of 8 x 8
-    shard("window.exr");
-    forge_attributes(
-        &d.join("window.exr"),
-        &[
-            ("embertrace.window", "0 0 16384 16384"),
-            ("embertrace.setting.resolution", "16384x16384"),
-        ],
-    );
-    let err = merge_refused("window.exr");
-    assert!(err.contains("window.exr"), "{err}");
-    assert!(
-        err.contains("its pixels (8 x 8 at 0, 0) do not match its embertrace.window"),
-        "{err}"
-    );
-
-    // 2^25 samples per pixel: past the documented 2^24
-    shard("spp.exr");
-    forge_attributes(
-        &d.join("spp.exr"),
-        &[
-            ("embertrace.samples", "0 33554432"),
-            ("embertrace.setting.spp", "33554432"),
-        ],
-    );
-    let err = merge_refused("spp.exr");
-    assert!(err.contains("spp.exr"), "{err}");
-    assert!(
-        err.contains("spp = 33554432 out of range (1..=16777216)"),
-        "{err}"
-    );
-
-    // a resolution past the limit, window and all
-    shard("res.exr");
-    forge_attributes(
-        &d.join("res.exr"),
-        &[("embertrace.setting.resolution", "40000x8")],
-    );
-    let err = merge_refused("res.exr");
-    assert!(err.contains("resolution 40000 x 8 out of range"), "{err}");
+    let forgeries: [(&str, &[(&str, &str)], &str); 3] = [
+        // a window of 16384 x 16384 pixels (28 GB of accumulators once
+        // merged, at 104 bytes a pixel) over a file of 8 x 8
+        (
+            "window.exr",
+            &[
+                ("embertrace.window", "0 0 16384 16384"),
+                ("embertrace.setting.resolution", "16384x16384"),
+            ],
+            "its pixels (8 x 8 at 0, 0) do not match its embertrace.window",
+        ),
+        // 2^25 samples per pixel: past the documented 2^24
+        (
+            "spp.exr",
+            &[
+                ("embertrace.samples", "0 33554432"),
+                ("embertrace.setting.spp", "33554432"),
+            ],
+            "spp = 33554432 out of range (1..=16777216)",
+        ),
+        // a resolution past the limit
+        (
+            "res.exr",
+            &[("embertrace.setting.resolution", "40000x8")],
+            "resolution 40000 x 8 out of range",
+        ),
+    ];
+    for (name, attributes, expect) in forgeries {
+        shard(name);
+        forge_attributes(&d.join(name), attributes);
+        let err = merge_refused(name);
+        assert!(err.contains(name) && err.contains(expect), "{err}");
+    }
 
     // the untouched shard still merges
     shard("good.exr");

@@ -345,6 +345,19 @@ impl Plastic {
 fn rough_coat_albedo(m: &Microfacet, ior: f32, mu: f32) -> f32 {
     let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
     let g1 = m.g1(wo);
+    visible_normal_mean(m, wo, |h| {
+        let wi = reflect(wo, h);
+        if wi.z > 0.0 {
+            fr_dielectric(wo.dot(h), ior) * m.g(wo, wi) / g1
+        } else {
+            0.0
+        }
+    })
+}
+
+/// The mean of `f` over the visible normals of `w`, on a `TABLE_GRID`
+/// squared midpoint grid through the visible-normal warp.
+fn visible_normal_mean(m: &Microfacet, w: Vec3, f: impl Fn(Vec3) -> f32) -> f32 {
     let mut sum = 0.0f64;
     for a in 0..TABLE_GRID {
         for b in 0..TABLE_GRID {
@@ -352,12 +365,8 @@ fn rough_coat_albedo(m: &Microfacet, ior: f32, mu: f32) -> f32 {
                 (a as f32 + 0.5) / TABLE_GRID as f32,
                 (b as f32 + 0.5) / TABLE_GRID as f32,
             );
-            let Some(h) = m.sample_visible(wo, u) else {
-                continue;
-            };
-            let wi = reflect(wo, h);
-            if wi.z > 0.0 {
-                sum += (fr_dielectric(wo.dot(h), ior) * m.g(wo, wi) / g1) as f64;
+            if let Some(h) = m.sample_visible(w, u) {
+                sum += f(h) as f64;
             }
         }
     }
@@ -377,30 +386,15 @@ fn lookup(table: CoatTable, mu: f32) -> f32 {
 /// `roughplastic` takes it (`eval_transmittance` in its `microfacet.h`):
 /// the mean over visible normals `h` of `(1 - F(w . h)) G1(t)`, `t` the
 /// direction refracted through `h`, on the same midpoint grid as
-/// [`rough_coat_albedo`]. It is not `1 - E(mu)`: the microfacet model
+/// [`rough_coat_albedo`] ([`visible_normal_mean`]). It is not `1 - E(mu)`: the microfacet model
 /// loses energy in transmission as in reflection, 16 % of a white base's
 /// albedo for GGX at alpha 0.6 (tests/rough_plastic.rs).
 fn mitsuba_transmittance(m: &Microfacet, ior: f32, mu: f32) -> f32 {
     let w = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
-    let mut sum = 0.0f64;
-    for a in 0..TABLE_GRID {
-        for b in 0..TABLE_GRID {
-            let u = Vec2::new(
-                (a as f32 + 0.5) / TABLE_GRID as f32,
-                (b as f32 + 0.5) / TABLE_GRID as f32,
-            );
-            let Some(h) = m.sample_visible(w, u) else {
-                continue;
-            };
-            let Some(r) = refract(w, h, ior) else {
-                continue;
-            };
-            if r.wt.z < 0.0 {
-                sum += ((1.0 - fr_dielectric(w.dot(h), ior)) * m.g1(r.wt)) as f64;
-            }
-        }
-    }
-    (sum / (TABLE_GRID * TABLE_GRID) as f64) as f32
+    visible_normal_mean(m, w, |h| match refract(w, h, ior) {
+        Some(r) if r.wt.z < 0.0 => (1.0 - fr_dielectric(w.dot(h), ior)) * m.g1(r.wt),
+        _ => 0.0,
+    })
 }
 
 /// Nodes of [`mitsuba_internal_reflectance`]'s sum (Mitsuba 3's
