@@ -356,6 +356,14 @@ fn a_million_instances_beyond_the_memory_limit_are_refused_with_the_figures() {
     assert!(err.contains("is available"), "{err}");
 }
 
+/// A forged part: its name, the attributes rewritten, and what the refusal
+/// must say.
+type Forgery = (
+    &'static str,
+    &'static [(&'static str, &'static str)],
+    &'static str,
+);
+
 /// Rewrite custom attributes of the accumulation file `path`: its pixels
 /// stay as they are.
 fn forge_attributes(path: &Path, set: &[(&str, &str)]) {
@@ -409,7 +417,7 @@ fn merge_refuses_forged_windows_and_sample_counts_before_allocating() {
         let out = run(d, &["merge", part, "-o", "out.png"]);
         one_line_error(d, &out, part)
     };
-    let forgeries: [(&str, &[(&str, &str)], &str); 3] = [
+    let forgeries: [Forgery; 3] = [
         // a window of 16384 x 16384 pixels (28 GB of accumulators once
         // merged, at 104 bytes a pixel) over a file of 8 x 8
         (
