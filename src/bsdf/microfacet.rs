@@ -290,21 +290,25 @@ const SQRT_PI: f64 = 1.772_453_850_905_516;
 
 /// Complementary error function in `f64`, with fractional error below
 /// 1.2e-7 everywhere (Press et al., *Numerical Recipes*, 2nd ed., section 6.2,
-/// `erfcc`: a Chebyshev fit).
-fn erfc(x: f64) -> f64 {
+/// `erfcc`: a Chebyshev fit). The polynomial in `t` goes by Horner's rule
+/// over its coefficients: the operations of the nested form, in its order
+/// (the same bits), which rustfmt took 12 s to format on every run.
+pub fn erfc(x: f64) -> f64 {
+    const C: [f64; 9] = [
+        1.000_023_68,
+        0.374_091_96,
+        0.096_784_18,
+        -0.186_288_06,
+        0.278_868_07,
+        -1.135_203_98,
+        1.488_515_87,
+        -0.822_152_23,
+        0.170_872_77,
+    ];
     let z = x.abs();
     let t = 1.0 / (1.0 + 0.5 * z);
-    let r = t
-        * (-z * z - 1.265_512_23
-            + t * (1.000_023_68
-                + t * (0.374_091_96
-                    + t * (0.096_784_18
-                        + t * (-0.186_288_06
-                            + t * (0.278_868_07
-                                + t * (-1.135_203_98
-                                    + t * (1.488_515_87
-                                        + t * (-0.822_152_23 + t * 0.170_872_77)))))))))
-            .exp();
+    let poly = C.iter().rev().fold(0.0, |acc, &c| c + t * acc);
+    let r = t * (-z * z - 1.265_512_23 + t * poly).exp();
     if x >= 0.0 { r } else { 2.0 - r }
 }
 

@@ -147,22 +147,9 @@ pub fn sidak_z(alpha: f64, m: usize) -> f64 {
     0.5 * (lo + hi)
 }
 
-/// Complementary error function (Numerical Recipes' erfcc, |error| < 1.2e-7).
-pub fn erfc(x: f64) -> f64 {
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let r = t
-        * (-z * z - 1.26551223
-            + t * (1.00002368
-                + t * (0.37409196
-                    + t * (0.09678418
-                        + t * (-0.18628806
-                            + t * (0.27886807
-                                + t * (-1.13520398
-                                    + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
-            .exp();
-    if x >= 0.0 { r } else { 2.0 - r }
-}
+/// Complementary error function (Numerical Recipes' erfcc, |error| <
+/// 1.2e-7): the renderer's own, which the Beckmann distribution uses.
+pub use embertrace::bsdf::microfacet::erfc;
 
 /// Upper `alpha` quantile of chi-square with `k` degrees of freedom
 /// (Wilson and Hilferty 1931; accurate for k in the hundreds).
