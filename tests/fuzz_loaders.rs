@@ -381,29 +381,32 @@ fn load_bounded(path: &Path) -> Outcome {
 }
 
 /// Render a scene that loaded at 2 x 2 pixels, 1 sample, 4 bounces, with
-/// the default backend, so that values a loader accepts (a huge aperture, a
-/// light at the edge of the range) are shown not to crash the renderer or
-/// Embree (which aborts the process on a ray it deems invalid). Scenes of
-/// more than 100 000 primitives are only loaded.
+/// every backend compiled in, so that values a loader accepts (a huge
+/// aperture, a light at the edge of the range) are shown not to crash the
+/// renderer or Embree (which aborts the process on a ray it deems invalid;
+/// `scripts/fuzz` therefore runs with Embree). Scenes of more than 100 000
+/// primitives are only loaded.
 fn render_tiny(scene: Scene) {
     use embertrace::accel::{self, AccelOptions, Backend};
-    use embertrace::integrator::PathTracer;
-    use embertrace::render::{RenderSettings, render};
-    use embertrace::settings::IntegratorSettings;
     if scene.primitive_count() > 100_000 {
         return;
     }
-    let acc = accel::build(
-        Backend::default_backend(),
-        scene.soup(),
-        AccelOptions::default(),
-    )
-    .expect("a loaded scene builds");
+    for backend in Backend::available() {
+        let acc = accel::build(backend, scene.soup(), AccelOptions::default())
+            .expect("a loaded scene builds");
+        render_with(&scene, acc.as_ref());
+    }
+}
+
+fn render_with(scene: &Scene, acc: &dyn embertrace::accel::Accelerator) {
+    use embertrace::integrator::PathTracer;
+    use embertrace::render::{RenderSettings, render};
+    use embertrace::settings::IntegratorSettings;
     let settings = IntegratorSettings {
         max_depth: 4,
         ..IntegratorSettings::default()
     };
-    let tracer = PathTracer::new(&scene, acc.as_ref(), settings);
+    let tracer = PathTracer::new(scene, acc, settings);
     let rs = RenderSettings {
         total_spp: None,
         resolution: [2, 2],
