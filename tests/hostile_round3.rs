@@ -38,6 +38,19 @@ fn render_refused(dir: &Path, scene: &str) -> String {
     one_line_error(dir, &out, scene)
 }
 
+/// Render `scene` in `dir` to `out` at 4 x 4, 1 sample: it must succeed.
+fn renders_tiny(dir: &Path, scene: &str, out: &str) {
+    let o = run(
+        dir,
+        &["render", scene, "-o", out, "-s", "1", "-r", "4", "4", "-q"],
+    );
+    assert!(
+        o.status.success(),
+        "{scene}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
 const CAMERA: &str = "[camera]\norigin = [0, 0, 5]\ntarget = [0, 0, 0]\nfov_y = 40\n";
 
 #[test]
@@ -78,26 +91,7 @@ fn mitsuba_bsdfs_nested_ten_thousand_deep_are_refused_not_a_stack_overflow() {
     // as deep as real scenes nest (three) still loads
     let ok = "<scene version=\"3.0.0\"><shape type=\"rectangle\"><bsdf type=\"twosided\"><bsdf type=\"mask\"><bsdf type=\"twosided\"><bsdf type=\"diffuse\"/></bsdf></bsdf></bsdf></shape><emitter type=\"constant\"/></scene>";
     std::fs::write(dir.path().join("three.xml"), ok).unwrap();
-    let out = run(
-        dir.path(),
-        &[
-            "render",
-            "three.xml",
-            "-o",
-            "three.png",
-            "-s",
-            "1",
-            "-r",
-            "4",
-            "4",
-            "-q",
-        ],
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    renders_tiny(dir.path(), "three.xml", "three.png");
 }
 
 /// Write a 4 x 4 EXR with `render`, then rewrite its data window to claim
@@ -109,26 +103,7 @@ fn forged_exr(dir: &Path, name: &str, side: i32) {
         format!("{CAMERA}[[light]]\ntype = \"environment\"\nradiance = 1\n"),
     )
     .unwrap();
-    let out = run(
-        dir,
-        &[
-            "render",
-            "plain.toml",
-            "-o",
-            "small.exr",
-            "-s",
-            "1",
-            "-r",
-            "4",
-            "4",
-            "-q",
-        ],
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    renders_tiny(dir, "plain.toml", "small.exr");
     let mut b = std::fs::read(dir.join("small.exr")).unwrap();
     let key = b"dataWindow\0box2i\0";
     let at = b.windows(key.len()).position(|w| w == key).unwrap() + key.len() + 4;
@@ -207,26 +182,7 @@ fn a_collada_accessor_that_claims_more_than_its_array_is_refused_at_its_line() {
     assert!(err.contains("its array has 9 numbers"), "{err}");
     // the honest count loads
     std::fs::write(dir.path().join("exact.dae"), dae(3)).unwrap();
-    let out = run(
-        dir.path(),
-        &[
-            "render",
-            "exact.dae",
-            "-o",
-            "exact.png",
-            "-s",
-            "1",
-            "-r",
-            "4",
-            "4",
-            "-q",
-        ],
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    renders_tiny(dir.path(), "exact.dae", "exact.png");
 }
 
 #[test]
