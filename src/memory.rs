@@ -20,6 +20,15 @@ pub fn available_bytes() -> Option<u64> {
     [free, address_space, cgroup].into_iter().flatten().min()
 }
 
+/// Peak resident set size of this process (`VmHWM` in `/proc/self/status`),
+/// 0 where that cannot be read.
+pub fn peak_memory_bytes() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| kb_field(&s, "VmHWM:"))
+        .unwrap_or(0)
+}
+
 fn meminfo_available() -> Option<u64> {
     let s = std::fs::read_to_string("/proc/meminfo").ok()?;
     kb_field(&s, "MemAvailable:")

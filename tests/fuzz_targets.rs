@@ -20,13 +20,11 @@ fn the_fuzz_targets_harness_takes_truncated_and_changed_seeds() {
         ("mesh.obj", "mesh.obj", harness::OBJ),
         ("mesh.mtl", "mesh.obj", harness::MTL),
     ];
-    let mut runs = 0;
     for (target, entry, seed) in targets {
         let seed = seed.as_bytes();
         harness::run(seed, target, entry);
         for end in (0..seed.len()).step_by(5) {
             harness::run(&seed[..end], target, entry);
-            runs += 1;
         }
         for (i, b) in [b'\0', b'[', b'9', b'\n', 0xff]
             .into_iter()
@@ -37,8 +35,6 @@ fn the_fuzz_targets_harness_takes_truncated_and_changed_seeds() {
             let mut changed = seed.to_vec();
             changed[i] = b;
             harness::run(&changed, target, entry);
-            runs += 1;
         }
     }
-    assert!(runs > 300, "{runs}");
 }

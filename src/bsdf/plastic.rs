@@ -199,19 +199,9 @@ impl Plastic {
             nonlinear,
         };
         if !microfacet.is_smooth() {
-            let mut table = [0.0; TABLE];
-            for (i, e) in table.iter_mut().enumerate() {
-                let s = i as f32 / (TABLE - 1) as f32;
-                *e = rough_coat_albedo(&microfacet, ior, (s * s * s).max(1e-5));
-            }
-            p.coat_albedo = intern(table);
+            p.coat_albedo = tabulate(|mu| rough_coat_albedo(&microfacet, ior, mu));
             if !nonlinear {
-                let mut t = [0.0; TABLE];
-                for (i, e) in t.iter_mut().enumerate() {
-                    let s = i as f32 / (TABLE - 1) as f32;
-                    *e = mitsuba_transmittance(&microfacet, ior, (s * s * s).max(1e-5));
-                }
-                p.coat_transmit = Some(intern(t));
+                p.coat_transmit = Some(tabulate(|mu| mitsuba_transmittance(&microfacet, ior, mu)));
             }
         }
         let mut avg = 0.0f64;
@@ -373,6 +363,17 @@ fn visible_normal_mean(m: &Microfacet, w: Vec3, f: impl Fn(Vec3) -> f32) -> f32 
     (sum / (TABLE_GRID * TABLE_GRID) as f64) as f32
 }
 
+/// `f` at the table's nodes, `mu = s^3` for `s` evenly spaced in `[0, 1]`
+/// (the first at `1e-5`), shared.
+fn tabulate(f: impl Fn(f32) -> f32) -> CoatTable {
+    let mut table = [0.0; TABLE];
+    for (i, e) in table.iter_mut().enumerate() {
+        let s = i as f32 / (TABLE - 1) as f32;
+        *e = f((s * s * s).max(1e-5));
+    }
+    intern(table)
+}
+
 /// A table at `mu` (nodes at `mu = s^3`, `s` evenly spaced), linear between
 /// nodes.
 fn lookup(table: CoatTable, mu: f32) -> f32 {
@@ -386,8 +387,8 @@ fn lookup(table: CoatTable, mu: f32) -> f32 {
 /// `roughplastic` takes it (`eval_transmittance` in its `microfacet.h`):
 /// the mean over visible normals `h` of `(1 - F(w . h)) G1(t)`, `t` the
 /// direction refracted through `h`, on the same midpoint grid as
-/// [`rough_coat_albedo`] ([`visible_normal_mean`]). It is not `1 - E(mu)`: the microfacet model
-/// loses energy in transmission as in reflection, 16 % of a white base's
+/// [`rough_coat_albedo`] ([`visible_normal_mean`]). It is not `1 - E(mu)`:
+/// the microfacet model loses energy in transmission as in reflection, 16 % of a white base's
 /// albedo for GGX at alpha 0.6 (tests/rough_plastic.rs).
 fn mitsuba_transmittance(m: &Microfacet, ior: f32, mu: f32) -> f32 {
     let w = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);

@@ -2,7 +2,7 @@
 //! they come from one scene and settings, do not overlap and fill a box of
 //! pixels and samples.
 
-use super::{Provenance, check_pixels_match, read_accumulation, window_array};
+use super::{Provenance, check_pixels_match, peak_memory_bytes, read_accumulation, window_array};
 use crate::error::{Error, Result};
 use crate::film::{Film, TileBounds};
 use crate::image::read_exr_metadata;
@@ -55,19 +55,6 @@ fn part_box(p: &Provenance) -> [[u64; 2]; 3] {
 
 fn volume(b: &[[u64; 2]; 3]) -> u128 {
     b.iter().map(|[a, z]| u128::from(z - a)).product()
-}
-
-/// Peak resident set size of this process (`VmHWM` in `/proc/self/status`),
-/// 0 where that cannot be read.
-pub fn peak_memory_bytes() -> u64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find_map(|l| l.strip_prefix("VmHWM:"))
-                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
-        })
-        .map_or(0, |kb| kb * 1024)
 }
 
 /// Merge accumulation files, in any order. Every part must come from the

@@ -35,7 +35,8 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 mod merge;
-pub use merge::{MergeReport, PartInfo, merge, peak_memory_bytes};
+pub use crate::memory::peak_memory_bytes;
+pub use merge::{MergeReport, PartInfo, merge};
 
 /// `--shard K/N`: the K-th (1-based) of N equal parts of every pixel's
 /// samples.
@@ -512,8 +513,14 @@ fn pixel_window(w: TileBounds) -> (usize, usize, i32, i32) {
 /// window its provenance claims and that its bytes can hold them: nothing is
 /// allocated from the attributes until they agree with the data.
 fn check_pixels_match(path: &Path, prov: &Provenance) -> Result<()> {
-    let (lw, lh, x, y) = check_exr_sizes(path)?;
-    if (lw, lh, x, y) != pixel_window(prov.window) {
+    window_matches(path, prov, check_exr_sizes(path)?)
+}
+
+/// Fails unless `found`, a data window `(width, height, x, y)`, is the
+/// window `prov` claims.
+fn window_matches(path: &Path, prov: &Provenance, found: (usize, usize, i32, i32)) -> Result<()> {
+    let (lw, lh, x, y) = found;
+    if found != pixel_window(prov.window) {
         return Err(Error::input(
             path,
             None,
@@ -529,14 +536,12 @@ pub fn read_accumulation(path: &Path) -> Result<(Film, Provenance)> {
     use exr::prelude::FlatSamples;
     let meta = read_exr_metadata(path)?;
     let prov = Provenance::from_metadata(path, &meta)?;
-    check_pixels_match(path, &prov)?;
+    // read_exr_channels checks the header's sizes before it allocates
     let layer = read_exr_channels(path)?;
     let w = prov.window;
     let pos = layer.attributes.layer_position;
     let found = (layer.size.width(), layer.size.height(), pos.x(), pos.y());
-    if found != pixel_window(w) {
-        return Err(Error::input(path, None, "changed while it was read"));
-    }
+    window_matches(path, &prov, found)?;
     let channel = |name: &str| -> Result<&[u32]> {
         let ch = layer
             .channel_data
