@@ -384,7 +384,7 @@ fn load_bounded(path: &Path) -> Outcome {
 /// every backend compiled in, so that values a loader accepts (a huge
 /// aperture, a light at the edge of the range) are shown not to crash the
 /// renderer or Embree (which aborts the process on a ray it deems invalid;
-/// `scripts/fuzz` therefore runs with Embree). Scenes of more than 100 000
+/// the default-feature suite runs this with Embree). Scenes of more than 100 000
 /// primitives are only loaded.
 fn render_tiny(scene: Scene) {
     use embertrace::accel::{self, AccelOptions, Backend};
