@@ -416,3 +416,45 @@ fn merge_refuses_forged_windows_and_sample_counts_before_allocating() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// An up vector within 1e-39 radians of the view (found by the fuzz run:
+/// `camera 0 0 4 0 0 0 0 1 1e39 45`, whose up scaled to a denormal in f32
+/// and made every ray NaN) is refused at its line in the three formats
+/// that take an up vector; an up 1e-3 radians off the view still renders.
+#[test]
+fn an_up_vector_all_but_parallel_to_the_view_is_refused_in_every_format() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let toml = |up: &str| {
+        format!(
+            "[camera]\norigin = [0, 0, 4]\ntarget = [0, 0, 0]\nup = {up}\nfov_y = 45\n\n\
+             [[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = {{ diffuse = 0.5 }}\n"
+        )
+    };
+    let xml = |up: &str| {
+        format!(
+            "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><float name=\"fov\" value=\"45\"/>\n\
+             <transform name=\"to_world\">\n<lookat origin=\"0, 0, 4\" target=\"0, 0, 0\" up=\"{up}\"/>\n\
+             </transform></sensor>\n<shape type=\"sphere\"/>\n</scene>\n"
+        )
+    };
+    let cse = |up: &str| format!("size 8 8\ncamera 0 0 4 0 0 0 {up} 45\nsphere 0 0 0 1\n");
+    let cases = [
+        (
+            "up.toml",
+            toml("[0, 1e-39, 1]"),
+            toml("[0, 1e-3, 1]"),
+            ":4:",
+        ),
+        ("up.xml", xml("0, 1e-39, 1"), xml("0, 1e-3, 1"), ":4:"),
+        ("up.test", cse("0 1 1e39"), cse("0 1e-3 1"), ":2:"),
+    ];
+    for (name, bad, good, line) in cases {
+        std::fs::write(d.join(name), bad).unwrap();
+        let err = render_refused(d, name);
+        assert!(err.contains(&format!("{name}{line}")), "{err}");
+        std::fs::write(d.join(name), good).unwrap();
+        renders_tiny(d, name, "tilted.png");
+        std::fs::remove_file(d.join("tilted.png")).unwrap();
+    }
+}

@@ -361,12 +361,7 @@ pub fn load(path: &Path) -> Result<Scene> {
                 let v = ld.numbers64::<10>(cmd, &args)?;
                 let origin = DVec3::new(v[0], v[1], v[2]);
                 let target = DVec3::new(v[3], v[4], v[5]);
-                // only up's direction matters: scaled to a largest component
-                // of 1, so that no finite value overflows in the checks below
-                // or in f32 (an up of (0, 1, 1e300) made NaN directions)
                 let up = DVec3::new(v[6], v[7], v[8]);
-                let largest = up.abs().max_element();
-                let up = if largest > 0.0 { up / largest } else { up };
                 let fov_y = v[9] as f32;
                 if !(fov_y > 0.0 && fov_y < 180.0) {
                     return Err(ld.fail(format!(
@@ -384,16 +379,17 @@ pub fn load(path: &Path) -> Result<Scene> {
                         )));
                     }
                 }
-                let view = target - origin;
-                if view.length_squared() == 0.0 || view.cross(up).length_squared() == 0.0 {
+                // only up's direction matters (an up of (0, 1, 1e300) or
+                // (0, 1e-39, 1) made NaN directions)
+                let Some(up) = WorldCamera::unit_up(origin, target, up) else {
                     return Err(ld.fail(
                         "`camera`: the eye, the point looked at and the up vector leave the view undefined",
                     ));
-                }
+                };
                 camera = Some(WorldCamera {
                     origin,
                     target,
-                    up: up.as_vec3(),
+                    up,
                     fov_y,
                 });
             }

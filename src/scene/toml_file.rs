@@ -1490,13 +1490,13 @@ pub fn load(path: &Path) -> Result<Scene> {
             None => (DVec3::Y, target_line),
         };
         let view = target - origin;
-        if !up.is_finite() || view.length() == 0.0 || view.cross(up).length() == 0.0 {
+        let Some(up) = WorldCamera::unit_up(origin, target, up) else {
             return Err(Error::input(
                 path,
                 up_line,
                 "camera: origin and target must differ and `up` must be finite and not parallel to the view",
             ));
-        }
+        };
         let fov_y = c.fov_y.as_ref().map_or(39.3, |f| *f.get_ref());
         if !(fov_y > 0.0 && fov_y < 180.0) {
             return Err(Error::input(
@@ -1508,7 +1508,7 @@ pub fn load(path: &Path) -> Result<Scene> {
         b.set_camera(WorldCamera {
             origin,
             target,
-            up: up.as_vec3(),
+            up,
             fov_y,
         });
         let scene = b.scene_mut();

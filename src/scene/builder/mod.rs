@@ -32,6 +32,19 @@ pub struct WorldCamera {
 }
 
 impl WorldCamera {
+    /// The unit up vector a camera at `origin` looking at `target` can use, or
+    /// `None` when the view is undefined: the two points equal, `up` zero or
+    /// not finite, or `up` within 1e-6 radians of the view axis. The test is
+    /// on unit vectors in f64, so a tiny or huge `up` (a component of 1e-39
+    /// became a denormal in f32 and made the camera's right vector, and every
+    /// ray, NaN) is judged by its direction alone.
+    pub fn unit_up(origin: DVec3, target: DVec3, up: DVec3) -> Option<Vec3> {
+        let view = (target - origin).try_normalize()?;
+        let largest = up.abs().max_element();
+        let up = (up / largest).try_normalize()?;
+        (view.cross(up).length() >= 1e-6).then(|| up.as_vec3())
+    }
+
     /// A camera that frames the world box `[min, max]` (empty when `min > max`):
     /// from the +z side, or looking down -y or -x on a box flat in y or x
     /// (a floor, a wall), which seen from +z would be edge-on and empty.

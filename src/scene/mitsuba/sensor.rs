@@ -90,13 +90,13 @@ impl<'a, 'i> Loader<'a, 'i> {
         let m = p.matrix("to_world").unwrap_or(DAffine3::IDENTITY);
         let origin = m.translation;
         let dir = (m.matrix3 * DVec3::Z).normalize_or_zero();
-        let up = m.matrix3 * DVec3::Y;
-        if dir == DVec3::ZERO || up.cross(dir) == DVec3::ZERO {
+        let up = WorldCamera::unit_up(origin, origin + dir, m.matrix3 * DVec3::Y);
+        let Some(up) = up.filter(|_| dir != DVec3::ZERO) else {
             return Err(self.fail(
                 node,
                 "sensor to_world: the view direction or up is degenerate",
             ));
-        }
+        };
         if m.matrix3.determinant() < 0.0 {
             self.warn(
                 node,
@@ -151,7 +151,7 @@ impl<'a, 'i> Loader<'a, 'i> {
         b.set_camera(WorldCamera {
             origin,
             target: origin + dir,
-            up: up.as_vec3(),
+            up,
             fov_y: (2.0 * ty.atan()).to_degrees() as f32,
         });
         let scene = b.scene_mut();

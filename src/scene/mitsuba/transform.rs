@@ -4,6 +4,7 @@
 
 use super::Loader;
 use crate::error::{Result, one_line};
+use crate::scene::WorldCamera;
 use glam::{DAffine3, DMat3, DVec3};
 use roxmltree::Node;
 
@@ -89,7 +90,11 @@ impl<'a, 'i> Loader<'a, 'i> {
                     };
                     let dir = (target - origin).normalize_or_zero();
                     let left = up.cross(dir).normalize_or_zero();
-                    if dir == DVec3::ZERO || left == DVec3::ZERO {
+                    // the cameras' test (up at least 1e-6 radians off the
+                    // view), so that a lookat gives the same answer for a
+                    // sensor as for a shape
+                    let defined = WorldCamera::unit_up(origin, target, up).is_some();
+                    if dir == DVec3::ZERO || left == DVec3::ZERO || !defined {
                         return Err(self.fail(
                             op,
                             "<lookat>: origin and target coincide, or up is parallel to the view",
