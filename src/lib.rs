@@ -75,4 +75,5 @@ pub mod sampling;
 pub mod scene;
 pub mod settings;
 pub mod shape;
+pub mod simd;
 pub mod texture;

@@ -98,6 +98,8 @@ pub struct PathTracer<'a> {
     one_sided: bool,
     kernel: Kernel,
     trace_fn: TraceFn<'a>,
+    /// The instruction set the kernel runs with ([`crate::simd`]).
+    simd: crate::simd::Level,
 }
 
 /// The most delta surfaces [`PathTracer::auxiliary`] follows.
@@ -178,12 +180,25 @@ impl<'a> PathTracer<'a> {
             one_sided: scene.materials.iter().any(|m| m.one_sided),
             kernel,
             trace_fn: select_kernel(kernel),
+            simd: crate::simd::active(),
         }
     }
 
     /// The settings.
     pub fn settings(&self) -> &IntegratorSettings {
         &self.settings
+    }
+
+    /// Run the kernels with the instruction set of `level` (or the widest
+    /// the CPU has below it); the image is the same bits on every level.
+    pub fn with_simd(mut self, level: crate::simd::Level) -> Self {
+        self.simd = level;
+        self
+    }
+
+    /// The instruction set the kernels run with.
+    pub fn simd(&self) -> crate::simd::Level {
+        self.simd
     }
 
     /// The kernel this tracer runs.

@@ -29,6 +29,7 @@ use crate::sampling::power_heuristic;
 use crate::scene::EmissionRole;
 use crate::scene::maps::{shadowing_alpha2, shadowing_g};
 use crate::settings::{DirectStrategy, Roulette};
+use std::marker::PhantomData;
 
 /// Paths traced together: a 4 x 4 block of pixels, the width of Embree's
 /// widest packet.
@@ -198,6 +199,36 @@ fn interpolate(c: [Vec3; 3], u: f32, v: f32) -> Vec3 {
     (1.0 - u - v) * c[0] + u * c[1] + v * c[2]
 }
 
+/// One call of a kernel, run by [`crate::simd::Level::dispatch`] so that
+/// the kernel's inlined steps compile for the chosen instruction set.
+struct Kernel<
+    't,
+    'a,
+    'l,
+    B,
+    const M: bool,
+    const D: bool,
+    const E: bool,
+    const L: bool,
+    const S: bool,
+> {
+    tracer: &'t PathTracer<'a>,
+    lanes: &'l mut [Lane],
+    rays: &'l mut RayCounts,
+    bsdf: PhantomData<B>,
+}
+
+impl<B: KernelBsdf, const M: bool, const D: bool, const E: bool, const L: bool, const S: bool>
+    pulp::WithSimd for Kernel<'_, '_, '_, B, M, D, E, L, S>
+{
+    type Output = ();
+    #[inline(always)]
+    fn with_simd<V: pulp::Simd>(self, _: V) {
+        self.tracer
+            .trace_lanes::<B, M, D, E, L, S>(self.lanes, self.rays);
+    }
+}
+
 /// A placeholder ray for unused batch slots.
 const NO_RAY: Ray = Ray {
     o: Vec3::ZERO,
@@ -223,14 +254,27 @@ impl<'a> PathTracer<'a> {
         rays: &mut RayCounts,
     ) {
         if MATERIALS {
-            self.trace_lanes::<Bsdf, MATERIALS, DELTA, ENVIRONMENT, EMITTERS, SHAPES>(lanes, rays);
+            self.simd.dispatch(
+                Kernel::<Bsdf, MATERIALS, DELTA, ENVIRONMENT, EMITTERS, SHAPES> {
+                    tracer: self,
+                    lanes,
+                    rays,
+                    bsdf: PhantomData,
+                },
+            );
         } else {
-            self.trace_lanes::<Diffuse, MATERIALS, DELTA, ENVIRONMENT, EMITTERS, SHAPES>(
-                lanes, rays,
+            self.simd.dispatch(
+                Kernel::<Diffuse, MATERIALS, DELTA, ENVIRONMENT, EMITTERS, SHAPES> {
+                    tracer: self,
+                    lanes,
+                    rays,
+                    bsdf: PhantomData,
+                },
             );
         }
     }
 
+    #[inline(always)]
     fn trace_lanes<
         B: KernelBsdf,
         const MATERIALS: bool,
@@ -309,7 +353,7 @@ impl<'a> PathTracer<'a> {
     /// Lane `lane`'s ray found `hit`: add the emission it sees, end the path
     /// where it ends (a miss, the depth limit, roulette), and otherwise
     /// return the shading point of the next bounce.
-    #[inline]
+    #[inline(always)]
     fn arrive<
         B: KernelBsdf,
         const MATERIALS: bool,
@@ -411,7 +455,7 @@ impl<'a> PathTracer<'a> {
     }
 
     /// The BSDF, frame and ray origin of a bounce at `its`.
-    #[inline]
+    #[inline(always)]
     fn shading_point<B: KernelBsdf, const MATERIALS: bool, const SHAPES: bool>(
         &self,
         its: Interaction,
@@ -456,6 +500,7 @@ impl<'a> PathTracer<'a> {
     /// rounds, each drawing one light sample per lane and tracing the
     /// round's shadow rays as one batch; each lane adds the mean of its
     /// unoccluded samples times its throughput.
+    #[inline(always)]
     fn sample_lights<B: KernelBsdf, const DELTA: bool, const SHAPES: bool>(
         &self,
         lanes: &mut [Lane],
@@ -561,7 +606,7 @@ impl<'a> PathTracer<'a> {
 
     /// BSDF sampling at `sh`: the lane's next ray and throughput, or the
     /// end of its path.
-    #[inline]
+    #[inline(always)]
     fn scatter<B: KernelBsdf, const MATERIALS: bool, const DELTA: bool, const SHAPES: bool>(
         &self,
         lane: &mut Lane,

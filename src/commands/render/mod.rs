@@ -57,6 +57,11 @@ pub struct RenderArgs {
         allow_negative_numbers = true
     )]
     threads: usize,
+    /// Vector instruction set of the estimator's kernels: auto (the widest
+    /// the CPU has), avx512, avx2 or scalar (the x86-64 baseline). The
+    /// image is the same bits on every level [env EMBERTRACE_SIMD, else auto].
+    #[arg(long)]
+    simd: Option<crate::simd::Choice>,
     /// Random seed [scene default, else 0].
     #[arg(long, allow_negative_numbers = true)]
     seed: Option<u64>,
@@ -185,6 +190,9 @@ const BUDGET_MAX_SPP: u32 = 1 << 20;
 
 /// Run `embertrace render`.
 pub fn run(args: RenderArgs) -> Result<()> {
+    if let Some(choice) = args.simd {
+        crate::simd::set_active(choice.resolve().map_err(Error::Settings)?);
+    }
     let output = args.output.clone().unwrap_or_else(|| {
         let stem = args.scene.file_stem().unwrap_or_default().to_string_lossy();
         PathBuf::from(format!("{stem}.png"))
@@ -524,6 +532,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let mut report = report;
     report.effects = plan.on().iter().map(|n| n.to_string()).collect();
     report.kernel = kernel.describe();
+    report.simd = crate::simd::active().to_string();
     if let Some(p) = progress {
         report.spp = p.spp_reached;
         if !args.quiet {

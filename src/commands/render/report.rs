@@ -75,6 +75,8 @@ pub struct RenderReport {
     pub sampler: String,
     /// Threads used.
     pub threads: usize,
+    /// The kernels' vector instruction set (`--simd`'s names).
+    pub simd: String,
     /// Seconds spent loading the scene.
     pub load_seconds: f64,
     /// Seconds spent building the acceleration structure.
@@ -173,6 +175,7 @@ impl RenderReport {
             seed: settings.seed,
             sampler: settings.sampler.to_string(),
             threads: out.threads,
+            simd: String::new(),
             load_seconds,
             accel_build_seconds,
             render_seconds: out.seconds,
