@@ -110,25 +110,56 @@ impl Level {
         }
     }
 
-    /// `op` run with this level's instruction set, or with the widest
-    /// supported one below it (a level the CPU lacks is never run).
+    /// The dispatcher for this level (or the widest supported one below
+    /// it: a level the CPU lacks is never run).
+    pub fn dispatcher(self) -> Dispatch {
+        let arch = 'found: {
+            #[cfg(target_arch = "x86_64")]
+            {
+                if self >= Level::Avx512
+                    && let Some(simd) = pulp::x86::V4::try_new()
+                {
+                    break 'found pulp::Arch::V4(simd);
+                }
+                if self >= Level::Avx2
+                    && let Some(simd) = pulp::x86::V3::try_new()
+                {
+                    break 'found pulp::Arch::V3(simd);
+                }
+            }
+            pulp::Arch::Scalar
+        };
+        Dispatch { level: self, arch }
+    }
+}
+
+/// A level checked against the CPU once, ready to run code with it: what
+/// the kernels and the BVH keep, so that a call costs one branch, not a
+/// CPU-feature query.
+#[derive(Debug, Clone, Copy)]
+pub struct Dispatch {
+    level: Level,
+    arch: pulp::Arch,
+}
+
+impl Dispatch {
+    /// The level asked for.
+    pub fn level(&self) -> Level {
+        self.level
+    }
+
+    /// `op` run with the level's instruction set: its code, inlined into
+    /// a function compiled for that set, is compiled (and vectorised) for it.
     #[inline(always)]
-    pub fn dispatch<Op: pulp::WithSimd>(self, op: Op) -> Op::Output {
-        use pulp::Simd;
-        #[cfg(target_arch = "x86_64")]
-        {
-            if self >= Level::Avx512
-                && let Some(simd) = pulp::x86::V4::try_new()
-            {
-                return Simd::vectorize(simd, op);
-            }
-            if self >= Level::Avx2
-                && let Some(simd) = pulp::x86::V3::try_new()
-            {
-                return Simd::vectorize(simd, op);
-            }
-        }
-        Simd::vectorize(pulp::Scalar::new(), op)
+    pub fn run<Op: pulp::WithSimd>(&self, op: Op) -> Op::Output {
+        self.arch.dispatch(op)
+    }
+}
+
+impl Default for Dispatch {
+    /// The [`active`] level's.
+    fn default() -> Self {
+        active().dispatcher()
     }
 }
 
@@ -225,7 +256,7 @@ mod tests {
                 Level::Avx2 => 8,
                 Level::Avx512 => 16,
             };
-            assert_eq!(l.dispatch(Width), want, "{l}");
+            assert_eq!(l.dispatcher().run(Width), want, "{l}");
         }
     }
 }

@@ -63,6 +63,7 @@ pub struct WatertightRay {
 
 impl WatertightRay {
     /// Prepare `ray` (its direction must be non-zero and finite).
+    #[inline]
     pub fn new(ray: &Ray) -> Self {
         let d = ray.d;
         let a = d.abs();

@@ -99,7 +99,7 @@ pub struct PathTracer<'a> {
     kernel: Kernel,
     trace_fn: TraceFn<'a>,
     /// The instruction set the kernel runs with ([`crate::simd`]).
-    simd: crate::simd::Level,
+    simd: crate::simd::Dispatch,
 }
 
 /// The most delta surfaces [`PathTracer::auxiliary`] follows.
@@ -180,7 +180,7 @@ impl<'a> PathTracer<'a> {
             one_sided: scene.materials.iter().any(|m| m.one_sided),
             kernel,
             trace_fn: select_kernel(kernel),
-            simd: crate::simd::active(),
+            simd: crate::simd::Dispatch::default(),
         }
     }
 
@@ -192,13 +192,13 @@ impl<'a> PathTracer<'a> {
     /// Run the kernels with the instruction set of `level` (or the widest
     /// the CPU has below it); the image is the same bits on every level.
     pub fn with_simd(mut self, level: crate::simd::Level) -> Self {
-        self.simd = level;
+        self.simd = level.dispatcher();
         self
     }
 
     /// The instruction set the kernels run with.
     pub fn simd(&self) -> crate::simd::Level {
-        self.simd
+        self.simd.level()
     }
 
     /// The kernel this tracer runs.

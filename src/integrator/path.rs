@@ -254,7 +254,7 @@ impl<'a> PathTracer<'a> {
         rays: &mut RayCounts,
     ) {
         if MATERIALS {
-            self.simd.dispatch(
+            self.simd.run(
                 Kernel::<Bsdf, MATERIALS, DELTA, ENVIRONMENT, EMITTERS, SHAPES> {
                     tracer: self,
                     lanes,
@@ -263,7 +263,7 @@ impl<'a> PathTracer<'a> {
                 },
             );
         } else {
-            self.simd.dispatch(
+            self.simd.run(
                 Kernel::<Diffuse, MATERIALS, DELTA, ENVIRONMENT, EMITTERS, SHAPES> {
                     tracer: self,
                     lanes,

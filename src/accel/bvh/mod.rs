@@ -55,6 +55,7 @@ use super::triangle::Tri4;
 use super::{Accelerator, AlphaTest, Hit, HitFilter, Masks, Opaque, TriangleSoup};
 use crate::error::{Error, Result};
 use crate::math::Ray;
+use crate::simd::{Dispatch, Level};
 use build::PrimRef;
 use node::{Aabb, ChildRef, Node};
 use pages::PageArray;
@@ -98,6 +99,40 @@ pub struct Bvh {
     /// a tree of their placements' boxes: searched last (empty, and skipped
     /// at once, without instances).
     instances: InstanceSet<Bvh>,
+    /// The instruction set the traversal runs with ([`crate::simd`]; the
+    /// same answers, bit for bit, on every level).
+    simd: Dispatch,
+}
+
+/// A closest-hit traversal, run by [`Dispatch::run`] so that the inlined
+/// traversal compiles for the chosen instruction set.
+struct Closest<'q, F> {
+    bvh: &'q Bvh,
+    ray: &'q Ray,
+    filter: &'q F,
+}
+
+impl<F: HitFilter> pulp::WithSimd for Closest<'_, F> {
+    type Output = Option<Hit>;
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) -> Option<Hit> {
+        self.bvh.closest_hit(self.ray, self.filter)
+    }
+}
+
+/// An any-hit traversal, as [`Closest`].
+struct Any<'q, F> {
+    bvh: &'q Bvh,
+    ray: &'q Ray,
+    filter: &'q F,
+}
+
+impl<F: HitFilter> pulp::WithSimd for Any<'_, F> {
+    type Output = bool;
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) -> bool {
+        self.bvh.any_hit(self.ray, self.filter)
+    }
 }
 
 impl Bvh {
@@ -105,6 +140,12 @@ impl Bvh {
     /// corner are left out (they can never be hit). Fails only for more than
     /// [`MAX_TRIANGLES`] triangles.
     pub fn new(soup: TriangleSoup<'_>, quality: BvhQuality) -> Result<Self> {
+        Self::with_simd(soup, quality, crate::simd::active())
+    }
+
+    /// [`Bvh::new`], traversed with the instruction set of `level`.
+    pub fn with_simd(soup: TriangleSoup<'_>, quality: BvhQuality, level: Level) -> Result<Self> {
+        let simd = level.dispatcher();
         let too_many = || Error::Backend {
             backend: "bvh",
             message: format!(
@@ -138,7 +179,11 @@ impl Bvh {
         }
         let spheres = SphereSet::new(soup.spheres, soup.indices.len() as u32);
         let instances = InstanceSet::new(soup.instances, true, |p| {
-            Bvh::new(TriangleSoup::triangles(&p.positions, &p.indices), quality)
+            Bvh::with_simd(
+                TriangleSoup::triangles(&p.positions, &p.indices),
+                quality,
+                level,
+            )
         })?;
         if prims.is_empty() {
             return Ok(Bvh {
@@ -149,6 +194,7 @@ impl Bvh {
                 stats: TreeStats::default(),
                 spheres,
                 instances,
+                simd,
             });
         }
         let tree = build::build(&mut prims, quality);
@@ -173,12 +219,36 @@ impl Bvh {
             stats: tree.stats,
             spheres,
             instances,
+            simd,
         })
     }
 
     /// The tree's shape: node and leaf counts and depth.
     pub fn stats(&self) -> TreeStats {
         self.stats
+    }
+
+    /// The instruction set the traversal runs with.
+    pub fn simd(&self) -> Level {
+        self.simd.level()
+    }
+
+    #[inline(always)]
+    fn closest<F: HitFilter>(&self, ray: &Ray, filter: &F) -> Option<Hit> {
+        self.simd.run(Closest {
+            bvh: self,
+            ray,
+            filter,
+        })
+    }
+
+    #[inline(always)]
+    fn any<F: HitFilter>(&self, ray: &Ray, filter: &F) -> bool {
+        self.simd.run(Any {
+            bvh: self,
+            ray,
+            filter,
+        })
     }
 }
 
@@ -195,13 +265,13 @@ impl Accelerator for Bvh {
     }
 
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let best = self.closest_hit(ray, &Opaque);
+        let best = self.closest(ray, &Opaque);
         let best = super::naive::with_spheres(&self.spheres, ray, best);
         self.instances.closest(ray, best, None)
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
-        self.any_hit(ray, &Opaque)
+        self.any(ray, &Opaque)
             || (!self.spheres.is_empty() && ray.is_finite() && self.spheres.any(ray))
             || self.instances.any(ray, None)
     }
@@ -212,7 +282,7 @@ impl Accelerator for Bvh {
             ray,
             first_prim: 0,
         };
-        let best = self.closest_hit(ray, &masks);
+        let best = self.closest(ray, &masks);
         let best = super::naive::with_spheres(&self.spheres, ray, best);
         self.instances.closest(ray, best, Some(alpha))
     }
@@ -223,7 +293,7 @@ impl Accelerator for Bvh {
             ray,
             first_prim: 0,
         };
-        self.any_hit(ray, &masks)
+        self.any(ray, &masks)
             || (!self.spheres.is_empty() && ray.is_finite() && self.spheres.any(ray))
             || self.instances.any(ray, Some(alpha))
     }
@@ -231,9 +301,9 @@ impl Accelerator for Bvh {
 
 impl PrototypeQuery for Bvh {
     fn closest_triangle<F: HitFilter>(&self, ray: &Ray, filter: &F) -> Option<Hit> {
-        self.closest_hit(ray, filter)
+        self.closest(ray, filter)
     }
     fn any_triangle<F: HitFilter>(&self, ray: &Ray, filter: &F) -> bool {
-        self.any_hit(ray, filter)
+        self.any(ray, filter)
     }
 }

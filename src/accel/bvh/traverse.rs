@@ -182,6 +182,7 @@ impl Bvh {
     /// lowest original index.
     ///
     /// `filter` decides which triangle hits count (see [`HitFilter`]).
+    #[inline(always)]
     pub(crate) fn closest_hit<F: HitFilter>(&self, ray: &Ray, filter: &F) -> Option<Hit> {
         let mut cur = self.root?;
         if !ray.is_finite() {
@@ -281,6 +282,7 @@ impl Bvh {
     }
 
     /// Whether any hit exists with `0 < t <= ray.t_max`.
+    #[inline(always)]
     pub(crate) fn any_hit<F: HitFilter>(&self, ray: &Ray, filter: &F) -> bool {
         let Some(mut cur) = self.root else {
             return false;
