@@ -27,7 +27,7 @@
 //! `bitmap` answers `eval_1` on an RGB image.
 
 use crate::error::{Error, Result};
-use crate::image::{read_exr, read_png_as, read_png_opacity};
+use crate::image::{read_exr, read_hdr, read_jpeg_as, read_png_as, read_png_opacity};
 use crate::math::{Vec2, Vec3, luminance};
 use std::path::{Path, PathBuf};
 
@@ -56,20 +56,26 @@ impl PartialEq for ImageTexture {
     }
 }
 
+/// The image files a texture or environment map is read from, as errors
+/// name them.
+const FORMATS: &str = "a .png or .jpg (sRGB) or an .exr or .hdr (linear) image";
+
 impl ImageTexture {
-    /// Load a texture from a `.png` (sRGB) or `.exr` (linear) file.
+    /// Load a texture from a `.png` or `.jpg`/`.jpeg` (sRGB) or an `.exr`
+    /// or `.hdr` (linear) file.
     pub fn load(path: &Path) -> Result<Self> {
         Self::load_as(path, false)
     }
 
-    /// Load a texture; with `raw`, a PNG's values are taken as they are
-    /// (linear) instead of decoded from sRGB. EXR is linear either way.
+    /// Load a texture; with `raw`, a PNG's or JPEG's values are taken as
+    /// they are (linear) instead of decoded from sRGB. EXR and Radiance HDR
+    /// are linear either way.
     pub fn load_as(path: &Path, raw: bool) -> Result<Self> {
         if path.is_dir() {
             return Err(Error::input(
                 path,
                 None,
-                "is a directory, expected a .png (sRGB) or .exr (linear) image",
+                format!("is a directory, expected {FORMATS}"),
             ));
         }
         let ext = path
@@ -78,12 +84,14 @@ impl ImageTexture {
             .map(str::to_ascii_lowercase);
         let (width, height, rgb) = match ext.as_deref() {
             Some("png") => read_png_as(path, raw)?,
+            Some("jpg" | "jpeg") => read_jpeg_as(path, raw)?,
             Some("exr") => read_exr(path)?,
+            Some("hdr") => read_hdr(path)?,
             _ => {
                 return Err(Error::input(
                     path,
                     None,
-                    "unsupported texture format: expected a .png (sRGB) or .exr (linear) image",
+                    format!("unsupported texture format: expected {FORMATS}"),
                 ));
             }
         };

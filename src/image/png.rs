@@ -1,6 +1,8 @@
 //! PNG: a film's means as 8-bit sRGB after an exposure scale, 8-bit RGB
 //! maps and plots as they are, and PNG textures (8 or 16 bits per channel,
-//! grey or colour, alpha ignored) decoded to linear RGB.
+//! grey or colour, alpha ignored) decoded to linear RGB. JPEG textures
+//! (8-bit sRGB) and Radiance `.hdr` images (linear RGBE) are read here too,
+//! through the same decoder.
 
 use super::srgb::{srgb_to_linear, srgb8};
 use super::{Rgb, write_atomically, write_file_atomically};
@@ -64,14 +66,25 @@ pub fn read_png(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
     read_png_as(path, false)
 }
 
-/// The decoded image of the PNG at `path`.
-fn decode(path: &Path) -> Result<::image::DynamicImage> {
+/// The decoded image of the `format` file at `path` (whatever its
+/// extension says).
+fn decode_as(path: &Path, format: ::image::ImageFormat) -> Result<::image::DynamicImage> {
     let mut reader = ::image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
-    reader.set_format(::image::ImageFormat::Png);
+    reader.set_format(format);
+    let name = match format {
+        ::image::ImageFormat::Jpeg => "JPEG",
+        ::image::ImageFormat::Hdr => "Radiance HDR",
+        _ => "PNG",
+    };
     reader.decode().map_err(|e| match e {
         ::image::ImageError::IoError(e) => Error::io(path, e),
-        other => Error::input(path, None, format!("not a readable PNG file: {other}")),
+        other => Error::input(path, None, format!("not a readable {name} file: {other}")),
     })
+}
+
+/// The decoded image of the PNG at `path`.
+fn decode(path: &Path) -> Result<::image::DynamicImage> {
+    decode_as(path, ::image::ImageFormat::Png)
 }
 
 /// A PNG as an opacity: its alpha channel when it has one, otherwise its
@@ -96,7 +109,26 @@ pub fn read_png_opacity(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
 /// `[0, 1]` and not decoded from sRGB (Mitsuba's `bitmap` with `raw = true`:
 /// normal maps, roughness maps and other data that is not a colour).
 pub fn read_png_as(path: &Path, raw: bool) -> Result<(u32, u32, Vec<f32>)> {
-    let img = decode(path)?;
+    to_linear(decode(path)?, raw)
+}
+
+/// A JPEG (8 bits per channel, grey or colour, as baseline and progressive
+/// JPEG store them) decoded from sRGB to linear RGB like [`read_png_as`],
+/// or with `raw` its values scaled to `[0, 1]`.
+pub fn read_jpeg_as(path: &Path, raw: bool) -> Result<(u32, u32, Vec<f32>)> {
+    to_linear(decode_as(path, ::image::ImageFormat::Jpeg)?, raw)
+}
+
+/// A Radiance `.hdr` (RGBE) image: its linear RGB values, `(width, height,
+/// rgb)`, row-major, top row first.
+pub fn read_hdr(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
+    let img = decode_as(path, ::image::ImageFormat::Hdr)?.into_rgb32f();
+    Ok((img.width(), img.height(), img.into_raw()))
+}
+
+/// The decoded 8- or 16-bit image `img` as linear RGB (from sRGB unless
+/// `raw`).
+fn to_linear(img: ::image::DynamicImage, raw: bool) -> Result<(u32, u32, Vec<f32>)> {
     // 8-bit values v become 257 v exactly, so one 16-bit table serves both
     let img = img.into_rgb16();
     let lut: Vec<f32> = (0..=u16::MAX)
