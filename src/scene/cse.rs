@@ -381,7 +381,7 @@ pub fn load(path: &Path) -> Result<Scene> {
                 }
                 // only up's direction matters (an up of (0, 1, 1e300) or
                 // (0, 1e-39, 1) made NaN directions)
-                let Some(up) = WorldCamera::unit_up(origin, target, up) else {
+                let Some(up) = WorldCamera::usable_up(origin, target, up) else {
                     return Err(ld.fail(
                         "`camera`: the eye, the point looked at and the up vector leave the view undefined",
                     ));

@@ -1490,7 +1490,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             None => (DVec3::Y, target_line),
         };
         let view = target - origin;
-        let Some(up) = WorldCamera::unit_up(origin, target, up) else {
+        let Some(up) = WorldCamera::usable_up(origin, target, up) else {
             return Err(Error::input(
                 path,
                 up_line,

@@ -32,17 +32,20 @@ pub struct WorldCamera {
 }
 
 impl WorldCamera {
-    /// The unit up vector a camera at `origin` looking at `target` can use, or
-    /// `None` when the view is undefined: the two points equal, `up` zero or
-    /// not finite, or `up` within 1e-6 radians of the view axis. The test is
-    /// on unit vectors in f64, so a tiny or huge `up` (a component of 1e-39
-    /// became a denormal in f32 and made the camera's right vector, and every
-    /// ray, NaN) is judged by its direction alone.
-    pub fn unit_up(origin: DVec3, target: DVec3, up: DVec3) -> Option<Vec3> {
+    /// The up vector a camera at `origin` looking at `target` uses: `up`
+    /// scaled to a largest component of magnitude 1 (so that no finite value
+    /// overflows in f32; a second call leaves it as it is, so a converted
+    /// scene keeps its bits), or `None` when the view is undefined: the two
+    /// points equal, `up` zero or not finite, or `up` within 1e-6 radians of
+    /// the view axis. The test is on unit vectors in f64, so a tiny or huge
+    /// `up` (a component of 1e-39 became a denormal in f32 and made the
+    /// camera's right vector, and every ray, NaN) is judged by its direction
+    /// alone.
+    pub fn usable_up(origin: DVec3, target: DVec3, up: DVec3) -> Option<Vec3> {
         let view = (target - origin).try_normalize()?;
-        let largest = up.abs().max_element();
-        let up = (up / largest).try_normalize()?;
-        (view.cross(up).length() >= 1e-6).then(|| up.as_vec3())
+        let scaled = up / up.abs().max_element();
+        let unit = scaled.try_normalize()?;
+        (view.cross(unit).length() >= 1e-6).then(|| scaled.as_vec3())
     }
 
     /// A camera that frames the world box `[min, max]` (empty when `min > max`):

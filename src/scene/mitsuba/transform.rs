@@ -93,7 +93,7 @@ impl<'a, 'i> Loader<'a, 'i> {
                     // the cameras' test (up at least 1e-6 radians off the
                     // view), so that a lookat gives the same answer for a
                     // sensor as for a shape
-                    let defined = WorldCamera::unit_up(origin, target, up).is_some();
+                    let defined = WorldCamera::usable_up(origin, target, up).is_some();
                     if dir == DVec3::ZERO || left == DVec3::ZERO || !defined {
                         return Err(self.fail(
                             op,
