@@ -51,7 +51,7 @@ const SYSTEMATIC: f64 = 2e-3;
 /// 1 % bias the test must see, the other half left to the noise.
 const MAX_RELATIVE_BAND: f64 = 0.005;
 /// The scenes and their block counts ((w / 8) x (h / 8)).
-const SCENES: [(&str, usize); 9] = [
+const SCENES: [(&str, usize); 10] = [
     ("cbox", 30),
     ("lights", 35),
     ("envmap", 30),
@@ -61,6 +61,7 @@ const SCENES: [(&str, usize); 9] = [
     ("production", 30),
     ("meaning", 48),
     ("grazing", 72),
+    ("metals", 30),
 ];
 
 fn data(name: &str) -> PathBuf {
@@ -276,9 +277,14 @@ fn errors_name_the_file_line_and_element() {
             "rotation",
         ),
         (
-            "<bsdf type=\"conductor\" id=\"au\">\n<string name=\"material\" value=\"Au\"/>\n</bsdf>\n<shape type=\"cube\"><ref id=\"au\"/></shape>",
+            "<bsdf type=\"conductor\" id=\"x\">\n<string name=\"material\" value=\"Unobtainium\"/>\n</bsdf>\n<shape type=\"cube\"><ref id=\"x\"/></shape>",
             ":2:",
-            "Au",
+            "Unobtainium",
+        ),
+        (
+            "<bsdf type=\"conductor\" id=\"au\">\n<string name=\"material\" value=\"Au\"/>\n<rgb name=\"eta\" value=\"1\"/><rgb name=\"k\" value=\"1\"/>\n</bsdf>\n<shape type=\"cube\"><ref id=\"au\"/></shape>",
+            ":2:",
+            "not both",
         ),
         (
             "<shape type=\"rectangle\">\n<float name=\"x\" value=\"1e400\"/>\n</shape>",
@@ -391,6 +397,71 @@ fn defaults_refs_and_units_follow_mitsuba() {
         embertrace::bsdf::Bsdf::Glass(g) => assert!((g.ior - 1.3330 / 1.00028).abs() < 1e-6),
         other => panic!("{other:?}"),
     }
+}
+
+/// `material="Au"` and the rest of Mitsuba 3's names give the RGB `eta`
+/// and `k` its RGB variants use (`src/bsdf/named_conductors.rs`, written
+/// from Mitsuba 3.9.1 by `scripts/mitsuba_named_conductors.py`): gold's
+/// normal-incidence reflectance is gold's colour, names are Mitsuba's
+/// spelling, and `metals.xml` renders to Mitsuba's image (the suite above).
+#[test]
+fn named_conductors_take_mitsubas_rgb_values() {
+    use embertrace::bsdf::Bsdf;
+    use embertrace::bsdf::named_conductors::NAMED_CONDUCTORS;
+    let conductor = |name: &str| {
+        let s = load(&scene_with(&format!(
+            "<shape type=\"sphere\"><bsdf type=\"roughconductor\"><string name=\"material\" value=\"{name}\"/></bsdf></shape>"
+        )))
+        .unwrap();
+        match &s.materials[s.sphere_material[0] as usize].bsdf {
+            Bsdf::Conductor(c) => (c.eta, c.k),
+            other => panic!("{other:?}"),
+        }
+    };
+    let (eta, k) = conductor("Au");
+    // Mitsuba 3.9.1, scalar_rgb: eta 0.143, 0.375, 1.442; k 3.983, 2.386, 1.603
+    assert!(
+        (eta - embertrace::math::Vec3::new(0.143036, 0.375307, 1.442045))
+            .abs()
+            .max_element()
+            < 1e-5
+    );
+    assert!(
+        (k - embertrace::math::Vec3::new(3.982997, 2.385556, 1.603359))
+            .abs()
+            .max_element()
+            < 1e-5
+    );
+    let f0 = ((eta - 1.0) * (eta - 1.0) + k * k) / ((eta + 1.0) * (eta + 1.0) + k * k);
+    assert!(
+        f0.x > 0.95 && f0.y > 0.75 && f0.y < 0.85 && f0.z < 0.4,
+        "gold's F0 {f0}"
+    );
+    // every preset loads, but the two whose RGB form has eta = k = 0 in
+    // red (Mitsuba clamps AlSb's out-of-gamut spectra there), which are a
+    // clear error at their line
+    assert_eq!(NAMED_CONDUCTORS.len(), 65);
+    for &(name, _, _) in NAMED_CONDUCTORS {
+        if name.starts_with("AlSb") {
+            let xml = format!(
+                "<shape type=\"sphere\"><bsdf type=\"conductor\"><string name=\"material\" value=\"{name}\"/></bsdf></shape>"
+            );
+            let e = load(&scene_with(&xml)).unwrap_err();
+            assert!(
+                e.contains(":2:") && e.contains(name) && e.contains("eta = k = 0"),
+                "{e}"
+            );
+            continue;
+        }
+        let (eta, k) = conductor(name);
+        assert!(
+            eta.is_finite() && eta.min_element() >= 0.0 && k.min_element() >= 0.0,
+            "{name}"
+        );
+        assert!((0..3).all(|c| eta[c] > 0.0 || k[c] > 0.0), "{name}");
+    }
+    // names are case-sensitive, as in Mitsuba
+    assert!(load(&scene_with("<shape type=\"sphere\"><bsdf type=\"conductor\"><string name=\"material\" value=\"au\"/></bsdf></shape>")).is_err());
 }
 
 #[test]

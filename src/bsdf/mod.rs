@@ -43,6 +43,7 @@ pub mod fresnel;
 mod glass;
 pub mod microfacet;
 mod mirror;
+pub mod named_conductors;
 mod phong;
 mod plastic;
 

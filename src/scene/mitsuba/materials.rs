@@ -349,15 +349,36 @@ impl<'a, 'i> Loader<'a, 'i> {
                 let eta = p.colour(self, "eta")?;
                 let k = p.colour(self, "k")?;
                 let (eta, k) = match (eta, k) {
-                    (Some(e), Some(k)) => (e, k),
+                    (Some(e), Some(k)) if material == "none" => (e, k),
                     (None, None) if material == "none" => (Vec3::ZERO, Vec3::ONE),
-                    (None, None) => {
+                    // Mitsuba 3's presets, as its RGB variants see them
+                    (None, None) => match named_conductor(&material) {
+                        // AlSb: Mitsuba's RGB conversion clamps its red
+                        // channel's spectra to eta = k = 0
+                        Some((eta, k)) if (0..3).any(|c| eta[c] == 0.0 && k[c] == 0.0) => {
+                            return Err(self.fail(
+                                node,
+                                format!(
+                                    "conductor material `{}`: Mitsuba 3's RGB form of it has eta = k = 0 in a channel (its spectrum clamped out of gamut), which has no Fresnel reflectance; give `eta` and `k`",
+                                    one_line(&material)
+                                ),
+                            ));
+                        }
+                        Some(ior) => ior,
+                        None => {
+                            return Err(self.fail(
+                                node,
+                                format!(
+                                    "conductor material `{}` is not one of Mitsuba 3's named conductors (Au, Ag, Al, Cu, Cr, W, ... and their `_palik` forms)",
+                                    one_line(&material)
+                                ),
+                            ));
+                        }
+                    },
+                    (Some(_), Some(_)) => {
                         return Err(self.fail(
                             node,
-                            format!(
-                                "conductor material `{}`: named metals need spectral data; give `eta` and `k` as rgb",
-                                one_line(&material)
-                            ),
+                            "conductor: give either `eta` and `k` or `material`, not both",
                         ));
                     }
                     _ => return Err(self.fail(node, "conductor: give both `eta` and `k`")),
@@ -459,4 +480,13 @@ impl<'a, 'i> Loader<'a, 'i> {
         }
         Ok(())
     }
+}
+
+/// Mitsuba 3's named conductor `name` (case as Mitsuba spells it): its RGB
+/// `eta` and `k` ([`crate::bsdf::named_conductors`]).
+fn named_conductor(name: &str) -> Option<(Vec3, Vec3)> {
+    crate::bsdf::named_conductors::NAMED_CONDUCTORS
+        .iter()
+        .find(|(n, _, _)| *n == name)
+        .map(|&(_, eta, k)| (Vec3::from(eta), Vec3::from(k)))
 }

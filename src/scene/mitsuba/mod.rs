@@ -37,8 +37,10 @@
 //!   `plastic`, `roughplastic`, `twosided`, with `rgb`, `float`, `spectrum`
 //!   (one value) and `bitmap` textures. Indices of refraction take numbers or
 //!   Mitsuba's names (`bk7`, `air`, `water`, ... from Mitsuba's table).
-//!   Conductors take `eta` and `k` (named metals need spectral data, so they
-//!   are an error) or `material="none"`, the perfect mirror.
+//!   Conductors take `eta` and `k`, a `material` of Mitsuba 3's named
+//!   conductors (`Au`, `Cu`, ...: the RGB values its RGB variants use,
+//!   [`crate::bsdf::named_conductors`]) or `material="none"`, the perfect
+//!   mirror.
 //! - **Emitters** `area` (in a shape), `point`, `directional`, `constant`,
 //!   `envmap` (`filename`, `scale`; `to_world` must be the identity: our
 //!   map is in Mitsuba's default orientation).

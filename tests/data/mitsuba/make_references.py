@@ -2,7 +2,7 @@
 """Write the assets of the Mitsuba XML test scenes (icosphere.obj, floor.ply,
 sky.exr, checker.png, maps.xml's normals.png, roughness.png and bumps.png,
 grazing.xml's steep.png,
-and production.xml's cutout.png) and render each scene with Mitsuba 3
+production.xml's cutout.png and metals.xml's checker.jpg) and render each scene with Mitsuba 3
 itself into
 <scene>.ref.exr (the mean of PASSES independent renders) and
 <scene>.var.exr (the variance of that mean, per pixel and channel, from the
@@ -31,7 +31,7 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCENES = ["cbox", "lights", "envmap", "instances", "spot", "maps", "production", "meaning",
-          "grazing"]
+          "grazing", "metals"]
 # Scenes rendered with `volpath` instead of their XML's `path`: Mitsuba
 # 3.9.1's `path` tests an emitter sample's visibility with every surface
 # opaque, so its shadow rays stop at a `mask`'s holes (while its BSDF samples
@@ -122,6 +122,18 @@ def checker_png():
             base = [(230, 60, 60), (60, 200, 60), (60, 60, 220), (220, 220, 220)][quad]
             img[y, x] = base if on else (30, 30, 30)
     mi.Bitmap(img, mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, "checker.png"))
+
+
+def checker_jpg():
+    """metals.xml's floor: a 32 x 32 grey checker of flat 8 x 8 blocks.
+    Grey keeps the chroma constant and a flat block is one DC coefficient,
+    which JPEG stores exactly at any quality, so every decoder (Mitsuba's
+    libjpeg, embertrace's image crate) reads the same bytes back."""
+    levels = np.array([[40, 160, 90, 230], [230, 90, 160, 40],
+                       [160, 40, 230, 90], [90, 230, 40, 160]], dtype=np.uint8)
+    grey = np.kron(levels, np.ones((8, 8), dtype=np.uint8))
+    img = np.repeat(grey[:, :, None], 3, axis=2)
+    mi.Bitmap(img, mi.Bitmap.PixelFormat.RGB).write(os.path.join(HERE, "checker.jpg"))
 
 
 def png(name, img):
@@ -215,6 +227,7 @@ if __name__ == "__main__":
         checker_png()
     maps_pngs()
     cutout_png()
+    checker_jpg()
     info = {"generator": "tests/data/mitsuba/make_references.py",
             "mitsuba_version": mi.__version__, "variant": mi.variant(),
             "passes": PASSES, "spp_per_pass": SPP, "volpath": sorted(VOLPATH), "mean": {}}
