@@ -57,6 +57,15 @@ pub struct RenderArgs {
         allow_negative_numbers = true
     )]
     threads: usize,
+    /// Thin-lens aperture radius (the CS184 course's `-b`), replacing the
+    /// scene's; 0 is a pinhole [scene's lens].
+    #[arg(short = 'b', long = "lens-radius", allow_negative_numbers = true)]
+    lens_radius: Option<f32>,
+    /// Distance from the lens to the plane in focus, along the view (the
+    /// CS184 course's `-d`) [the scene's; without one, 4.7 for a CS184 .dae
+    /// as in the course, else the distance to the point looked at].
+    #[arg(short = 'd', long = "focal-distance", allow_negative_numbers = true)]
+    focal_distance: Option<f32>,
     /// Vector instruction set of the estimator's kernels: auto (the widest
     /// the CPU has), avx512, avx2 or scalar (the x86-64 baseline). The
     /// image is the same bits on every level [env EMBERTRACE_SIMD, else auto].
@@ -317,7 +326,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
 
     let t0 = Instant::now();
-    let scene = Scene::load(&args.scene)?;
+    let mut scene = Scene::load(&args.scene)?;
+    if args.lens_radius.is_some() || args.focal_distance.is_some() {
+        scene.lens = lens_from_flags(&scene, &args.scene, args.lens_radius, args.focal_distance)?;
+    }
     let load_seconds = t0.elapsed().as_secs_f64();
     let mut inputs = Inputs::of_scene(&scene);
     if let Some(r) = &args.reference {
@@ -752,4 +764,42 @@ fn render_farm(
         )));
     }
     Ok(po.out)
+}
+
+/// The CS184 course's focus distance when `-d` is not given
+/// (`pathtracer_focalDistance` in its `application.h`).
+const COURSE_FOCAL_DISTANCE: f32 = 4.7;
+
+/// The lens `-b` and `-d` make of `scene`'s: each flag replaces its part;
+/// a missing `-d` keeps the scene's focus distance when it has a lens, and
+/// is otherwise 4.7 for a CS184 `.dae` (the course's default) or the
+/// distance from the eye to the point looked at.
+fn lens_from_flags(
+    scene: &Scene,
+    path: &std::path::Path,
+    radius: Option<f32>,
+    distance: Option<f32>,
+) -> Result<crate::camera::ThinLens> {
+    let course = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("dae"));
+    let focus = distance.unwrap_or(if !scene.lens.is_pinhole() {
+        scene.lens.focus_distance
+    } else if course {
+        COURSE_FOCAL_DISTANCE
+    } else {
+        (scene.camera.target - scene.camera.origin).length()
+    });
+    let radius = radius.unwrap_or(scene.lens.aperture_radius);
+    if !(radius >= 0.0 && radius.is_finite()) {
+        return Err(Error::Settings(format!(
+            "-b (lens radius): expected a finite number >= 0, got {radius}"
+        )));
+    }
+    if !(focus > 0.0 && focus.is_finite()) {
+        return Err(Error::Settings(format!(
+            "-d (focal distance): expected a finite number > 0, got {focus}"
+        )));
+    }
+    crate::camera::ThinLens::new(radius, focus)
 }
