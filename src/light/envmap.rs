@@ -159,6 +159,51 @@ fn direction_and_sine(uv: Vec2) -> (Vec3, f32) {
     (Vec3::new(sin_p * sin_t, cos_t, -cos_p * sin_t), sin_t)
 }
 
+/// The CS184 course's environment map `course` (its `-e` flag) laid out
+/// for this module's convention, so that it lights a scene as the course
+/// lights it, exactly up to rounding.
+///
+/// The course (`src/scene/environment_light.cpp` of cal-cs184's
+/// p3_2-pathtracer) reads direction `d` at `phi = atan2(-d.z, d.x) + pi`,
+/// `theta = acos(d.y)`, column `x = phi / 2pi w`, row `y = theta / pi h`,
+/// bilinearly between texel centres (`x + 0.5`, `y + 0.5`), wrapping in `x`
+/// and holding the first and last rows' values out to the poles.
+///
+/// - Columns: the course's `u_c = phi / 2pi` is this module's `0.75 - u`,
+///   a mirror and a quarter turn, so course column `i` becomes column
+///   `(3w/4 - 1 - i) mod w`: exact when 4 divides the width (every
+///   equirectangular map we know of; others are refused).
+/// - Rows: this module's rows sit at `theta = pi j / (H - 1)`. With `H = 2h
+///   + 1`, its odd rows are the course's row centres, its even rows the
+///   midpoints between them (where the course's interpolation is their
+///   mean), and its first and last rows the poles, where the course holds
+///   its first and last rows. The course's radiance is linear between its
+///   centres, so the two lookups agree.
+pub fn from_course_layout(course: &ImageTexture) -> Result<ImageTexture> {
+    let (w, h) = (course.width() as usize, course.height() as usize);
+    if w % 4 != 0 {
+        return Err(Error::Settings(format!(
+            "a CS184 environment map ({w} x {h}) must be a multiple of 4 texels wide, \
+             so that the course's azimuth maps onto whole columns"
+        )));
+    }
+    let texel = |i: usize, j: usize| course.texels()[j * w + (3 * w / 4 + w - 1 - i) % w];
+    let rows = 2 * h + 1;
+    let mut rgb = Vec::with_capacity(w * rows * 3);
+    for r in 0..rows {
+        for i in 0..w {
+            let t = match r {
+                0 => texel(i, 0),
+                r if r == rows - 1 => texel(i, h - 1),
+                r if r % 2 == 1 => texel(i, r / 2),
+                r => 0.5 * (texel(i, r / 2 - 1) + texel(i, r / 2)),
+            };
+            rgb.extend_from_slice(&t.to_array());
+        }
+    }
+    ImageTexture::from_linear_rgb(w as u32, rows as u32, rgb)
+}
+
 impl EnvironmentMap {
     /// The environment of `file` (an image [`ImageTexture::load`] reads),
     /// scaled by `radiance`.

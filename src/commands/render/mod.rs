@@ -57,6 +57,11 @@ pub struct RenderArgs {
         allow_negative_numbers = true
     )]
     threads: usize,
+    /// Environment map with the CS184 course's layout (its `-e`: an
+    /// equirectangular image whose azimuth runs from -x towards +z, read
+    /// as the course reads it), replacing the scene's environment.
+    #[arg(short = 'e', long = "course-envmap", value_name = "FILE")]
+    course_envmap: Option<PathBuf>,
     /// Thin-lens aperture radius (the CS184 course's `-b`), replacing the
     /// scene's; 0 is a pinhole [scene's lens].
     #[arg(short = 'b', long = "lens-radius", allow_negative_numbers = true)]
@@ -330,8 +335,25 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if args.lens_radius.is_some() || args.focal_distance.is_some() {
         scene.lens = lens_from_flags(&scene, &args.scene, args.lens_radius, args.focal_distance)?;
     }
+    if let Some(file) = &args.course_envmap {
+        let map = crate::texture::ImageTexture::load(file)?;
+        let laid_out = crate::light::envmap::from_course_layout(&map)
+            .and_then(|m| crate::light::EnvironmentMap::new(m, crate::math::Vec3::ONE))
+            .map_err(|e| match e {
+                Error::Settings(m) => Error::input(file, None, m),
+                other => other,
+            })?;
+        if scene.environment_map.is_some() || scene.environment.is_some() {
+            say("note: -e replaces the scene's environment");
+        }
+        scene.environment = None;
+        scene.environment_map = Some(laid_out);
+    }
     let load_seconds = t0.elapsed().as_secs_f64();
     let mut inputs = Inputs::of_scene(&scene);
+    if let Some(file) = &args.course_envmap {
+        inputs.add(file, "the -e environment map");
+    }
     if let Some(r) = &args.reference {
         inputs.add(r, "the --reference image");
     }
