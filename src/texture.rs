@@ -516,10 +516,17 @@ mod tests {
         let missing = dir.path().join("missing.png");
         let e = ImageTexture::load(&missing).unwrap_err().to_string();
         assert!(e.contains("missing.png") && !e.contains('\n'), "{e}");
+        let gif = dir.path().join("photo.gif");
+        std::fs::write(&gif, b"not really").unwrap();
+        let e = ImageTexture::load(&gif).unwrap_err().to_string();
+        assert!(e.contains("photo.gif") && e.contains("unsupported"), "{e}");
         let jpg = dir.path().join("photo.jpg");
         std::fs::write(&jpg, b"not really").unwrap();
         let e = ImageTexture::load(&jpg).unwrap_err().to_string();
-        assert!(e.contains("photo.jpg") && e.contains("unsupported"), "{e}");
+        assert!(
+            e.contains("photo.jpg") && e.contains("not a readable JPEG"),
+            "{e}"
+        );
         let bad = dir.path().join("bad.png");
         std::fs::write(&bad, b"\x89PNG\r\n\x1a\n truncated").unwrap();
         let e = ImageTexture::load(&bad).unwrap_err().to_string();

@@ -173,9 +173,9 @@ fn direction_and_sine(uv: Vec2) -> (Vec3, f32) {
 ///   a mirror and a quarter turn, so course column `i` becomes column
 ///   `(3w/4 - 1 - i) mod w`: exact when 4 divides the width (every
 ///   equirectangular map we know of; others are refused).
-/// - Rows: this module's rows sit at `theta = pi j / (H - 1)`. With `H = 2h
-///   + 1`, its odd rows are the course's row centres, its even rows the
-///   midpoints between them (where the course's interpolation is their
+/// - Rows: this module's rows sit at `theta = pi j / (H - 1)`. With
+///   `H = 2h + 1` rows, the odd ones are the course's row centres, the even
+///   ones the midpoints between them (where the course's interpolation is their
 ///   mean), and its first and last rows the poles, where the course holds
 ///   its first and last rows. The course's radiance is linear between its
 ///   centres, so the two lookups agree.
