@@ -371,3 +371,34 @@ pub fn one_pixel(
     assert_eq!(out.nonfinite.count, 0);
     (out.film.mean(0, 0), out.film.variance_of_mean(0, 0))
 }
+
+/// Write each `(name, text)` of `files` under `dir`, making folders.
+pub fn setup(dir: &Path, files: &[(&str, String)]) {
+    for (name, text) in files {
+        let p = dir.join(name);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(p, text).unwrap();
+    }
+}
+
+/// The embertrace binary run in `dir` with `args`.
+pub fn run(dir: &Path, args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_embertrace"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("embertrace runs")
+}
+
+/// One triangle, as an OBJ file.
+pub const GOOD_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+/// The entries of folder `dir`, sorted.
+pub fn entries(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut v: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    v.sort();
+    v
+}
