@@ -1,11 +1,13 @@
-//! The vector instruction set the estimator's batch kernels run with,
-//! chosen at run time (issue 37): one binary uses AVX-512 where the CPU has
-//! it, AVX2 where it has that, and the x86-64 baseline (SSE2) elsewhere.
+//! The vector instruction set the estimator's batch kernels and the BVH's
+//! traversal run with, chosen at run time (issue 37): one binary uses
+//! AVX-512 where the CPU has it, AVX2 where it has that, and the x86-64
+//! baseline (SSE2) elsewhere.
 //!
-//! The kernels are compiled once per level through the `pulp` crate: its
-//! `Simd::vectorize` runs a closure inside a function compiled with the
-//! level's target features, and the kernel's code, inlined there, is
-//! compiled (and auto-vectorised over the batch's lanes) for that level.
+//! That code is compiled once per level through the `pulp` crate: its
+//! `Simd::vectorize` runs an operation inside a function compiled with the
+//! level's target features, and the code inlined there is compiled for that
+//! level (the BVH's 8-wide node test gains from it; the kernels, still one
+//! lane at a time, measurably do not yet).
 //! `pulp` is safe to call (it checks the CPU before it hands out a level),
 //! maintained, and covers the three x86-64 levels a render farm meets; it
 //! is why this crate needs no `unsafe` for its vector code.

@@ -104,14 +104,9 @@ fn render(dir: &Path, scene: &str, out: &str) -> std::process::Output {
 /// The report's mean RGB.
 fn mean_rgb(dir: &Path) -> [f64; 3] {
     let text = std::fs::read_to_string(dir.join("r.json")).unwrap();
-    let at = text.find("\"mean_rgb\"").unwrap();
-    let inner = &text[at..][text[at..].find('[').unwrap() + 1..];
-    let inner = &inner[..inner.find(']').unwrap()];
-    let v: Vec<f64> = inner
-        .split(',')
-        .map(|x| x.trim().parse().unwrap())
-        .collect();
-    [v[0], v[1], v[2]]
+    let report: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let m = &report["mean_rgb"];
+    [0, 1, 2].map(|c| m[c].as_f64().unwrap())
 }
 
 #[test]

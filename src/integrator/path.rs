@@ -199,7 +199,7 @@ fn interpolate(c: [Vec3; 3], u: f32, v: f32) -> Vec3 {
     (1.0 - u - v) * c[0] + u * c[1] + v * c[2]
 }
 
-/// One call of a kernel, run by [`crate::simd::Level::dispatch`] so that
+/// One call of a kernel, run by [`crate::simd::Dispatch::run`] so that
 /// the kernel's inlined steps compile for the chosen instruction set.
 struct Kernel<
     't,

@@ -90,8 +90,8 @@ impl<'a, 'i> Loader<'a, 'i> {
         let m = p.matrix("to_world").unwrap_or(DAffine3::IDENTITY);
         let origin = m.translation;
         let dir = (m.matrix3 * DVec3::Z).normalize_or_zero();
-        let up = WorldCamera::usable_up(origin, origin + dir, m.matrix3 * DVec3::Y);
-        let Some(up) = up.filter(|_| dir != DVec3::ZERO) else {
+        // (no view direction leaves it None as well)
+        let Some(up) = WorldCamera::usable_up(origin, origin + dir, m.matrix3 * DVec3::Y) else {
             return Err(self.fail(
                 node,
                 "sensor to_world: the view direction or up is degenerate",

@@ -90,11 +90,11 @@ impl<'a, 'i> Loader<'a, 'i> {
                     };
                     let dir = (target - origin).normalize_or_zero();
                     let left = up.cross(dir).normalize_or_zero();
-                    // the cameras' test (up at least 1e-6 radians off the
-                    // view), so that a lookat gives the same answer for a
-                    // sensor as for a shape
+                    // the cameras' test (origin and target apart, up at
+                    // least 1e-6 radians off the view), so that a lookat
+                    // gives the same answer for a sensor as for a shape
                     let defined = WorldCamera::usable_up(origin, target, up).is_some();
-                    if dir == DVec3::ZERO || left == DVec3::ZERO || !defined {
+                    if !defined || left == DVec3::ZERO {
                         return Err(self.fail(
                             op,
                             "<lookat>: origin and target coincide, or up is parallel to the view",
