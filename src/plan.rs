@@ -109,7 +109,7 @@ impl Kernel {
 
 /// The effect names, in the order `plan` lists them. These names are fixed:
 /// scripts read them from `plan --json` and from the render report.
-pub const EFFECTS: [&str; 23] = [
+pub const EFFECTS: [&str; 24] = [
     "diffuse",
     "mirror",
     "glass",
@@ -136,6 +136,7 @@ pub const EFFECTS: [&str; 23] = [
     "bump_map",
     "alpha_mask",
     "emitter_roles",
+    "metallic_roughness",
 ];
 
 /// Which kernel to run (`--plan`).
@@ -490,6 +491,12 @@ impl Plan {
             "emitters with a role other than an area light's",
             "panel lights sampled with MIS weight 1 and never hit (light/panel.rs); seen-only emission counted on camera rays and after delta bounces alone (integrator/path.rs)",
         );
+        add(
+            "metallic_roughness",
+            of_type("metallic_roughness"),
+            "metallic-roughness materials",
+            "glTF 2.0's Lambertian and GGX-Schlick lobes mixed by metalness, mixture sampling (bsdf/metallic_roughness.rs)",
+        );
         let finite_lights = finite_light_count(scene);
         let bvh = settings.light_sampler.picks_bvh(finite_lights);
         if let Some(e) = effects.iter_mut().find(|e| e.name == "many_lights") {
@@ -513,6 +520,7 @@ impl Plan {
                 "conductor",
                 "plastic",
                 "phong",
+                "metallic_roughness",
                 "texture",
             ]
             .iter()

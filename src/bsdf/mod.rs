@@ -3,7 +3,8 @@
 //!
 //! - `wo` and `wi` both point away from the surface.
 //! - The frame's +z axis is the normal turned towards `wo` for the reflective
-//!   BSDFs ([`Diffuse`], [`Mirror`], [`Conductor`], [`Plastic`], [`Phong`]: they see
+//!   BSDFs ([`Diffuse`], [`Mirror`], [`Conductor`], [`Plastic`], [`Phong`],
+//!   [`MetallicRoughness`]: they see
 //!   `wo.z > 0` and return zero or `None` otherwise). A BSDF that transmits
 //!   ([`Glass`], see [`Bxdf::has_transmission`]) needs to know which side is
 //!   inside: its +z is the surface's outward normal and `wo.z < 0` means `wo`
@@ -33,6 +34,7 @@
 //! | [`Conductor`] | GGX or Beckmann microfacet, delta when smooth | `conductor.rs` |
 //! | [`Plastic`] | GGX or delta coat over a Lambertian base | `plastic.rs` |
 //! | [`Phong`] | Lambertian plus a Phong or GGX-Schlick lobe (CSE 168) | `phong.rs` |
+//! | [`MetallicRoughness`] | glTF 2.0: Lambertian and GGX-Schlick mixed by metalness | `metallic_roughness.rs` |
 //!
 //! Each implements [`Bxdf`], so an estimator can be generic over the material
 //! types a scene uses; [`Bsdf`] is the closed sum of all of them.
@@ -41,6 +43,7 @@ mod conductor;
 mod diffuse;
 pub mod fresnel;
 mod glass;
+mod metallic_roughness;
 pub mod microfacet;
 mod mirror;
 pub mod named_conductors;
@@ -50,6 +53,7 @@ mod plastic;
 pub use conductor::Conductor;
 pub use diffuse::Diffuse;
 pub use glass::Glass;
+pub use metallic_roughness::MetallicRoughness;
 pub use microfacet::{Distribution, Masking, Microfacet};
 pub use mirror::Mirror;
 pub use phong::{Lobe, Phong};
@@ -176,6 +180,8 @@ pub enum Bsdf {
     Plastic(Plastic),
     /// Diffuse plus a Phong or GGX lobe (the CSE 168 material).
     Phong(Phong),
+    /// The glTF 2.0 metallic-roughness material.
+    MetallicRoughness(MetallicRoughness),
 }
 
 macro_rules! dispatch {
@@ -187,6 +193,7 @@ macro_rules! dispatch {
             Bsdf::Conductor($b) => $e,
             Bsdf::Plastic($b) => $e,
             Bsdf::Phong($b) => $e,
+            Bsdf::MetallicRoughness($b) => $e,
         }
     };
 }
@@ -233,6 +240,7 @@ impl Bsdf {
             Bsdf::Conductor(c) => c.validate(),
             Bsdf::Plastic(_) => Ok(()),
             Bsdf::Phong(p) => p.validate(),
+            Bsdf::MetallicRoughness(m) => m.validate(),
         }
     }
 }
@@ -285,6 +293,12 @@ impl From<Conductor> for Bsdf {
 impl From<Plastic> for Bsdf {
     fn from(b: Plastic) -> Self {
         Bsdf::Plastic(b)
+    }
+}
+
+impl From<MetallicRoughness> for Bsdf {
+    fn from(b: MetallicRoughness) -> Self {
+        Bsdf::MetallicRoughness(b)
     }
 }
 

@@ -116,7 +116,8 @@ const AUX_DELTA_CHAIN: usize = 8;
 ///   environment's radiance clamped to `[0, 1]`. A surface's reflectance is
 ///   its diffuse albedo (textures applied), a plastic's base albedo, a phong
 ///   material's `diffuse + specular` clamped to 1, a rough metal's Fresnel
-///   reflectance at normal incidence.
+///   reflectance at normal incidence, a metallic-roughness material's base
+///   colour.
 /// - `normal`: the first hit's shading normal (smooth normals, normal and
 ///   bump maps applied), world space, facing the camera; zero on a miss.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -134,6 +135,7 @@ fn reflectance(b: &crate::bsdf::Bsdf) -> Vec3 {
         Bsdf::Diffuse(d) => d.albedo,
         Bsdf::Plastic(p) => p.diffuse(),
         Bsdf::Phong(p) => (p.diffuse + p.specular).min(Vec3::ONE),
+        Bsdf::MetallicRoughness(m) => m.base_color,
         Bsdf::Conductor(c) => {
             crate::bsdf::fresnel::fr_conductor(1.0, c.eta, c.k).clamp(Vec3::ZERO, Vec3::ONE)
         }

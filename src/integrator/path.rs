@@ -22,7 +22,7 @@
 
 use super::{PathTracer, RayCounts};
 use crate::accel::{Coherence, Hit};
-use crate::bsdf::{Bsdf, Bxdf, Diffuse, Phong};
+use crate::bsdf::{Bsdf, Bxdf, Diffuse, MetallicRoughness, Phong};
 use crate::math::{Frame, Ray, SurfacePoint, Vec2, Vec3, gamma, spawn_ray};
 use crate::sampler::Sampler;
 use crate::sampling::power_heuristic;
@@ -148,6 +148,10 @@ impl KernelBsdf for Bsdf {
                     Bsdf::Phong(p) => Bsdf::Phong(Phong {
                         diffuse: albedo,
                         ..*p
+                    }),
+                    Bsdf::MetallicRoughness(m) => Bsdf::MetallicRoughness(MetallicRoughness {
+                        base_color: albedo,
+                        ..*m
                     }),
                     _ => Bsdf::Diffuse(Diffuse { albedo }),
                 }

@@ -16,6 +16,7 @@
 //! | `transmittance` | glass `transmittance` | each channel to `[0, 1]` |
 //! | `alpha` | conductor and plastic `alpha` (a scalar: [`ImageTexture::eval_scalar`]) | `>= 0` (texels are finite and `>= 0` already) |
 //! | `emission` | any | none (texels are finite and `>= 0`) |
+//! | `metallic_roughness` | metallic-roughness (glTF's texture: green is the roughness, blue the metalness) | each to `[0, 1]` |
 //!
 //! A plastic's coat albedo table is integrated once per roughness (about
 //! 15 ms), so a textured plastic roughness reads its coat from
@@ -48,6 +49,9 @@ pub struct Maps {
     pub transmittance: Option<Arc<ImageTexture>>,
     /// A conductor's or plastic's roughness.
     pub alpha: Option<Arc<ImageTexture>>,
+    /// A metallic-roughness material's roughness (green) and metalness
+    /// (blue), read raw, glTF's packing, its factors multiplied in.
+    pub metallic_roughness: Option<Arc<ImageTexture>>,
     /// A plastic's coats over its roughness texture's range (with `alpha`).
     pub plastic_coats: Option<Arc<PlasticCoats>>,
     /// Emitted radiance (then [`super::Material::emission`] is its mean).
@@ -103,7 +107,10 @@ impl Maps {
     /// Whether some texture replaces a parameter of the BSDF.
     #[inline]
     pub fn textures_bsdf(&self) -> bool {
-        self.specular.is_some() || self.transmittance.is_some() || self.alpha.is_some()
+        self.specular.is_some()
+            || self.transmittance.is_some()
+            || self.alpha.is_some()
+            || self.metallic_roughness.is_some()
     }
 
     /// Whether the material perturbs its shading normal (a normal or bump
@@ -134,6 +141,11 @@ impl Maps {
         if let (Some(t), Bsdf::Conductor(c)) = (&self.alpha, &mut *bsdf) {
             let alpha = t.eval_scalar(uv).max(0.0);
             c.microfacet = c.microfacet.with_alpha(alpha);
+        }
+        if let (Some(t), Bsdf::MetallicRoughness(m)) = (&self.metallic_roughness, &mut *bsdf) {
+            let c = unit(t);
+            m.roughness = c.y;
+            m.metallic = c.z;
         }
         if let (Some(t), Some(coats), Bsdf::Plastic(p)) =
             (&self.alpha, &self.plastic_coats, &mut *bsdf)

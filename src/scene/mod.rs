@@ -80,7 +80,8 @@ pub struct Material {
     /// loaded.
     pub bsdf: Bsdf,
     /// An albedo texture (shared by every material that names its file) that replaces the
-    /// diffuse albedo of a `diffuse` BSDF or the base of a `plastic` one,
+    /// diffuse albedo of a `diffuse` BSDF, the base of a `plastic` one or
+    /// the base colour of a `metallic_roughness` one,
     /// looked up at the surface's texture coordinates.
     pub texture: Option<Arc<ImageTexture>>,
     /// Emitted radiance (an area light when non-zero); the mean of
@@ -145,6 +146,7 @@ impl Material {
             ("transmittance", m.transmittance.as_ref()),
             ("alpha", m.alpha.as_ref()),
             ("emission", m.emission.as_ref()),
+            ("metallic_roughness", m.metallic_roughness.as_ref()),
         ]
         .into_iter()
         .filter_map(|(k, t)| t.map(|t| (k, t)))
@@ -160,6 +162,7 @@ impl Material {
             Bsdf::Conductor(_) => "conductor",
             Bsdf::Plastic(_) => "plastic",
             Bsdf::Phong(_) => "phong",
+            Bsdf::MetallicRoughness(_) => "metallic_roughness",
         }
     }
 }

@@ -4,6 +4,8 @@
 //! tests share one run).
 #![allow(dead_code)]
 
+pub mod bsdf_checks;
+
 use embertrace::accel::{self, AccelOptions, Accelerator, Backend};
 use embertrace::math::Vec3;
 use embertrace::scene::{Material, MeshData, Scene, SceneBuilder, Transform};

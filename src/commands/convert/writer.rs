@@ -154,6 +154,15 @@ impl Writer<'_> {
                 keys.extend(masking(p.microfacet().masking));
                 keys.push(format!("nonlinear = {}", p.nonlinear()));
             }
+            Bsdf::MetallicRoughness(p) => {
+                keys.push("type = \"metallic_roughness\"".to_string());
+                keys.push(format!("base_color = {}", rgb(p.base_color)));
+                keys.push(format!("metallic = {}", num(p.metallic)));
+                keys.push(format!("roughness = {}", num(p.roughness)));
+                keys.push(format!("specular = {}", num(p.specular)));
+                keys.push(format!("specular_color = {}", rgb(p.specular_color)));
+                keys.push(format!("ior = {}", num(p.ior)));
+            }
             Bsdf::Phong(p) => {
                 keys.push("type = \"phong\"".to_string());
                 keys.push(format!("diffuse = {}", rgb(p.diffuse)));

@@ -152,6 +152,16 @@ pub(super) fn keys_of_type(kind: &str) -> Option<&'static [&'static str]> {
             "nonlinear",
         ],
         "phong" => &["diffuse", "texture", "specular", "shininess", "roughness"],
+        "metallic_roughness" => &[
+            "base_color",
+            "texture",
+            "metallic",
+            "roughness",
+            "specular",
+            "specular_color",
+            "ior",
+            "metallic_roughness",
+        ],
         _ => return None,
     })
 }
@@ -169,7 +179,10 @@ pub(super) struct Value {
 /// name, and keys the table leaves out take the type's defaults (diffuse 0.8;
 /// reflectance and transmittance 1; ior 1.5; conductor `alpha` 0.1, `eta` 0
 /// and `k` 1 (a perfect conductor), GGX; plastic `alpha` 0; phong `specular` 0
-/// and `shininess` 1, or the GGX lobe when `roughness` is given). Without `type`,
+/// and `shininess` 1, or the GGX lobe when `roughness` is given;
+/// metallic-roughness as glTF's defaults, a white rough metal, with
+/// `base_color` or `texture` for its base colour and `metallic_roughness =
+/// { texture = "file" }` for glTF's packed texture, read linear). Without `type`,
 /// the keys given override those of `mat` (from an MTL file, say): `diffuse`
 /// or `texture` make it diffuse, and keys of other types are an error.
 ///
@@ -210,12 +223,17 @@ pub(super) fn apply_material(
                 texture: None,
             })
         };
-    let diffuse_key = match (&over.diffuse, &over.texture) {
+    let base_colour = over.kind.as_deref() == Some("metallic_roughness");
+    let (colour_key, colour) = if base_colour {
+        ("base_color", &over.base_color)
+    } else {
+        ("diffuse", &over.diffuse)
+    };
+    let diffuse_key = match (colour, &over.texture) {
         (Some(Param::Texture { .. }), Some(_)) => {
-            return Err(fail(
-                "material.texture and material.diffuse = { texture = ... } exclude each other"
-                    .into(),
-            ));
+            return Err(fail(format!(
+                "material.texture and material.{colour_key} = {{ texture = ... }} exclude each other"
+            )));
         }
         (_, Some(file)) => Some(Param::Texture {
             file: file.clone(),
@@ -223,13 +241,18 @@ pub(super) fn apply_material(
         }),
         (d, None) => d.clone(),
     };
-    let diffuse = unit(textures, "diffuse", &diffuse_key, 0.8)?;
+    let diffuse = unit(
+        textures,
+        colour_key,
+        &diffuse_key,
+        if base_colour { 1.0 } else { 0.8 },
+    )?;
     let texture = diffuse.texture.clone();
     match over.kind.as_deref() {
         None => {
             if let Some(k) = keys.iter().find(|k| !["diffuse", "texture"].contains(k)) {
                 return Err(fail(format!(
-                    "material.{k} needs a `type` (one of diffuse, mirror, glass, conductor, plastic, phong)"
+                    "material.{k} needs a `type` (one of diffuse, mirror, glass, conductor, plastic, phong, metallic_roughness)"
                 )));
             }
             if over.diffuse.is_some() || texture.is_some() {
@@ -244,7 +267,7 @@ pub(super) fn apply_material(
         Some(kind) => {
             let allowed = keys_of_type(kind).ok_or_else(|| {
                 fail(format!(
-                    "unknown material type `{kind}` (expected diffuse, mirror, glass, conductor, plastic or phong)"
+                    "unknown material type `{kind}` (expected diffuse, mirror, glass, conductor, plastic, phong or metallic_roughness)"
                 ))
             })?;
             if let Some(k) = keys.iter().find(|k| !allowed.contains(k)) {
@@ -335,6 +358,36 @@ pub(super) fn apply_material(
                         diffuse: diffuse.constant,
                         specular: spec.constant,
                         lobe,
+                    })
+                }
+                "metallic_roughness" => {
+                    let specular = match over.specular {
+                        None => 1.0,
+                        Some(Param::Number(s)) => s,
+                        Some(_) => {
+                            return Err(fail(
+                                "material.specular of a metallic_roughness material is one number in [0, 1] (KHR_materials_specular's specularFactor)".into(),
+                            ));
+                        }
+                    };
+                    maps.metallic_roughness = match &over.metallic_roughness {
+                        None => None,
+                        Some(Param::Texture { file, raw }) => {
+                            Some(textures.get(path, line, file, raw.unwrap_or(true))?)
+                        }
+                        Some(_) => {
+                            return Err(fail(
+                                "material.metallic_roughness must be { texture = \"file\" } (green: roughness, blue: metalness)".into(),
+                            ));
+                        }
+                    };
+                    Bsdf::MetallicRoughness(MetallicRoughness {
+                        base_color: diffuse.constant,
+                        metallic: over.metallic.unwrap_or(1.0),
+                        roughness: over.roughness.unwrap_or(1.0),
+                        specular,
+                        specular_color: over.specular_color.map_or(Vec3::ONE, |c| c.0),
+                        ior,
                     })
                 }
                 _ => {

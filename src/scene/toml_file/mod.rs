@@ -59,8 +59,8 @@ use super::{
     WorldCamera, load_obj_mesh, load_ply_mesh,
 };
 use crate::bsdf::{
-    Bsdf, Conductor, Diffuse, Distribution, Glass, Lobe, Masking, Microfacet, Mirror, Phong,
-    Plastic, PlasticCoats,
+    Bsdf, Conductor, Diffuse, Distribution, Glass, Lobe, Masking, MetallicRoughness, Microfacet,
+    Mirror, Phong, Plastic, PlasticCoats,
 };
 use crate::camera::ThinLens;
 use crate::error::{Error, Result};
@@ -277,6 +277,10 @@ struct MaterialToml {
     specular: Option<Param>,
     shininess: Option<f32>,
     roughness: Option<f32>,
+    base_color: Option<Param>,
+    metallic: Option<f32>,
+    specular_color: Option<Rgb>,
+    metallic_roughness: Option<Param>,
     emission: Option<Param>,
     two_sided: Option<bool>,
     emission_role: Option<String>,
@@ -306,6 +310,10 @@ impl MaterialToml {
             ("specular", self.specular.is_some()),
             ("shininess", self.shininess.is_some()),
             ("roughness", self.roughness.is_some()),
+            ("base_color", self.base_color.is_some()),
+            ("metallic", self.metallic.is_some()),
+            ("specular_color", self.specular_color.is_some()),
+            ("metallic_roughness", self.metallic_roughness.is_some()),
         ];
         present
             .iter()
