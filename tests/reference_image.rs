@@ -74,8 +74,23 @@ fn data(name: &str) -> PathBuf {
 }
 
 fn cornell_film(backend: Backend, spp: u32, seed: u64, sampler: SamplerKind) -> Film {
-    let scene = Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml"))
-        .unwrap();
+    cornell_film_of("cornell-box.toml", backend, spp, seed, sampler)
+}
+
+/// The film of the bundled Cornell box written as `file` (in `scenes/`).
+fn cornell_film_of(
+    file: &str,
+    backend: Backend,
+    spp: u32,
+    seed: u64,
+    sampler: SamplerKind,
+) -> Film {
+    let scene = Scene::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(file),
+    )
+    .unwrap();
     let acc = accel::build(backend, scene.soup(), AccelOptions::default()).unwrap();
     let tracer = PathTracer::new(&scene, acc.as_ref(), IntegratorSettings::default());
     let camera = Camera::new(&scene.camera, RES, RES);
@@ -108,11 +123,26 @@ fn mitsuba() -> PixelStats {
 
 #[test]
 fn cornell_box_matches_mitsuba() {
+    matches_mitsuba("cornell-box.toml");
+}
+
+/// The same box written as glTF 2.0, JSON and binary
+/// (`scenes/make_cornell_gltf.py`), against the same reference.
+#[test]
+fn gltf_and_glb_cornell_boxes_match_mitsuba() {
+    matches_mitsuba("cornell-box.gltf");
+    matches_mitsuba("cornell-box.glb");
+}
+
+/// The whole-image and block comparisons of [`cornell_box_matches_mitsuba`]
+/// for the box written as `file`.
+fn matches_mitsuba(file: &str) {
     let reference = mitsuba();
     // fixed seeds, chosen before the test was first run
     let passes: Vec<Vec<f32>> = (0..PASSES)
         .map(|k| {
-            cornell_film(
+            cornell_film_of(
+                file,
                 Backend::default_backend(),
                 PASS_SPP,
                 31_000 + k as u64,
@@ -125,7 +155,7 @@ fn cornell_box_matches_mitsuba() {
 
     // the whole image's mean
     let t = MeanTest::new(&ours, &reference, sidak_z(1e-5, 3), 0.0);
-    println!("{}", t.report("cornell box vs Mitsuba"));
+    println!("{}", t.report(&format!("{file} vs Mitsuba")));
     for c in 0..3 {
         assert!(
             t.relative_band(c) < MAX_RELATIVE_BAND,

@@ -24,7 +24,10 @@ pub use self::exr::{read_exr, read_exr_metadata};
 pub(crate) use atomic::write_atomically;
 pub use atomic::write_file_atomically;
 pub use pfm::read_pfm;
-pub use png::{read_hdr, read_jpeg_as, read_png, read_png_as, read_png_opacity, write_png_rgb8};
+pub use png::{
+    decode_image_bytes, read_hdr, read_jpeg_as, read_png, read_png_as, read_png_opacity,
+    write_png_rgb8,
+};
 pub use srgb::{srgb_to_linear, srgb8};
 
 use crate::error::{Error, Result};

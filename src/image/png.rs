@@ -126,6 +126,41 @@ pub fn read_hdr(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
     Ok((img.width(), img.height(), img.into_raw()))
 }
 
+/// An image decoded from memory: width, height, linear RGB (3 per texel),
+/// and the alpha channel when the image has one.
+pub type DecodedImage = (u32, u32, Vec<f32>, Option<Vec<f32>>);
+
+/// A PNG or JPEG held in memory (a glTF file's embedded or external
+/// image), its format told by its first bytes: `(width, height, rgb,
+/// alpha)`, the colour as [`read_png_as`] gives it and the alpha channel
+/// (linear, in `[0, 1]`) when the image has one. The error says what is
+/// wrong in one line.
+pub fn decode_image_bytes(
+    bytes: &[u8],
+    raw: bool,
+) -> std::result::Result<DecodedImage, String> {
+    let format = ::image::guess_format(bytes)
+        .map_err(|_| "not a PNG or JPEG image (unrecognised first bytes)".to_string())?;
+    if !matches!(
+        format,
+        ::image::ImageFormat::Png | ::image::ImageFormat::Jpeg
+    ) {
+        return Err(format!(
+            "a {format:?} image: only PNG and JPEG are read here"
+        ));
+    }
+    let img = ::image::load_from_memory_with_format(bytes, format)
+        .map_err(|e| format!("not a readable {format:?} image: {e}"))?;
+    let alpha = img.color().has_alpha().then(|| {
+        img.to_rgba16()
+            .pixels()
+            .map(|p| p.0[3] as f32 / u16::MAX as f32)
+            .collect()
+    });
+    let (w, h, rgb) = to_linear(img, raw).map_err(|e| e.to_string())?;
+    Ok((w, h, rgb, alpha))
+}
+
 /// The decoded 8- or 16-bit image `img` as linear RGB (from sRGB unless
 /// `raw`).
 fn to_linear(img: ::image::DynamicImage, raw: bool) -> Result<(u32, u32, Vec<f32>)> {

@@ -35,7 +35,7 @@ pub use directional::DirectionalLight;
 pub use envmap::{EnvironmentMap, EnvironmentSample};
 pub use panel::PanelLight;
 pub use point::PointLight;
-pub use spot::SpotLight;
+pub use spot::{Falloff, SpotLight};
 
 use crate::math::Ray;
 use crate::math::{Frame, Vec2, Vec3};

@@ -31,6 +31,14 @@
 //! which is `2 pi (1 - cos cutoff)` in the limit `beam -> cutoff` (a hard
 //! cone), computed in `f64`.
 //!
+//! glTF's `KHR_lights_punctual` spot ([`SpotLight::smooth`], `falloff =
+//! "smooth"`) falls off instead as the square of a linear ramp in the
+//! cosine, from 1 at the inner cone (`beam_width`) to 0 at the outer
+//! (`cutoff_angle`): `f = t^2`, `t = (cos theta - cos outer) / (cos inner -
+//! cos outer)` clamped to `[0, 1]` (the extension's reference code); its
+//! integral over the sphere is `2 pi ((1 - cos inner) + (cos inner - cos
+//! outer) / 3)`.
+//!
 //! Scene form (angles in degrees):
 //!
 //! ```toml
@@ -41,6 +49,7 @@
 //! intensity = [10.0, 9.0, 8.0]  # W/sr on the axis, or one number
 //! cutoff_angle = 30.0           # default 20
 //! beam_width = 20.0             # default 3/4 of cutoff_angle
+//! falloff = "linear"            # or "smooth" (glTF's; beam_width may be 0)
 //! ```
 
 use super::DeltaLightSample;
@@ -49,9 +58,21 @@ use crate::math::{SurfacePoint, Vec3, spawn_ray_to};
 /// Mitsuba's default cutoff angle, degrees.
 pub const DEFAULT_CUTOFF_ANGLE: f32 = 20.0;
 
+/// How a spot light's intensity falls off between its beam and its cutoff.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Falloff {
+    /// Linear in the angle (Mitsuba 3's).
+    #[default]
+    Linear,
+    /// The square of a ramp linear in the cosine (glTF's).
+    Smooth,
+}
+
 /// A spot light.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SpotLight {
+    /// The falloff between beam and cutoff.
+    falloff: Falloff,
     /// Where it is.
     pub position: Vec3,
     /// The axis as given (any non-zero finite length), kept so that a
@@ -109,6 +130,7 @@ impl SpotLight {
         let cutoff = cutoff_deg.to_radians();
         let beam = beam_deg.to_radians();
         Ok(SpotLight {
+            falloff: Falloff::Linear,
             position,
             direction,
             axis: d / d.length(),
@@ -120,6 +142,36 @@ impl SpotLight {
             cos_beam: beam.cos(),
             inv_transition: 1.0 / (cutoff - beam),
         })
+    }
+
+    /// glTF's spot light: full intensity within `inner` radians of the
+    /// axis, none beyond `outer`, the smooth falloff between (module docs).
+    /// Errors, as one line each: a zero or non-finite direction, angles
+    /// outside `0 <= inner < outer <= pi / 2`.
+    pub fn smooth(
+        position: Vec3,
+        direction: Vec3,
+        intensity: Vec3,
+        inner: f32,
+        outer: f32,
+    ) -> Result<Self, String> {
+        if !(inner >= 0.0 && inner < outer && outer <= std::f32::consts::FRAC_PI_2 + 1e-6) {
+            return Err(format!(
+                "spot light: cone angles must satisfy 0 <= inner < outer <= pi/2, got inner {inner} and outer {outer}"
+            ));
+        }
+        let outer_deg = outer.to_degrees().min(90.0);
+        // a valid linear light of the same cone, then the falloff swapped
+        let mut s = Self::new(position, direction, intensity, outer_deg, Some(outer_deg))?;
+        s.falloff = Falloff::Smooth;
+        s.beam_deg = inner.to_degrees();
+        s.cos_beam = inner.cos();
+        Ok(s)
+    }
+
+    /// The falloff between beam and cutoff.
+    pub fn falloff_kind(&self) -> Falloff {
+        self.falloff
     }
 
     /// The axis as given.
@@ -142,13 +194,17 @@ impl SpotLight {
         self.beam_deg
     }
 
-    /// Mitsuba's falloff `f` for a direction of emission at `cos_theta`
-    /// from the axis, in [0, 1].
+    /// The falloff `f` (Mitsuba's, or glTF's for [`SpotLight::smooth`])
+    /// for a direction of emission at `cos_theta` from the axis, in [0, 1].
     pub fn falloff(&self, cos_theta: f32) -> f32 {
         if !(cos_theta > self.cos_cutoff) {
             0.0
         } else if cos_theta >= self.cos_beam {
             1.0
+        } else if self.falloff == Falloff::Smooth {
+            let t = (cos_theta - self.cos_cutoff) / (self.cos_beam - self.cos_cutoff);
+            let t = t.clamp(0.0, 1.0);
+            t * t
         } else {
             ((self.cutoff - cos_theta.min(1.0).acos()) * self.inv_transition).clamp(0.0, 1.0)
         }
@@ -189,6 +245,12 @@ impl SpotLight {
     pub fn solid_angle_weight(&self) -> f64 {
         let c = (self.cutoff_deg as f64).to_radians();
         let b = (self.beam_deg as f64).to_radians();
+        if self.falloff == Falloff::Smooth {
+            // 1 - cos x = 2 sin^2(x / 2), without cancellation
+            let one_minus = |x: f64| 2.0 * (0.5 * x).sin().powi(2);
+            let (ob, oc) = (one_minus(b), one_minus(c));
+            return 2.0 * std::f64::consts::PI * (ob + (oc - ob) / 3.0);
+        }
         let h = 0.5 * (c - b);
         let sinc = if h < 1e-4 {
             1.0 - h * h / 6.0
@@ -224,6 +286,32 @@ mod tests {
 
     fn down(cutoff: f32, beam: Option<f32>) -> SpotLight {
         SpotLight::new(Vec3::new(0.0, 2.0, 0.0), -Vec3::Y, Vec3::ONE, cutoff, beam).unwrap()
+    }
+
+    /// glTF's falloff: the square of the ramp in the cosine, and its
+    /// integral over the sphere against a midpoint rule in the cosine.
+    #[test]
+    fn smooth_falloff_is_gltfs() {
+        let (inner, outer) = (10f32.to_radians(), 40f32.to_radians());
+        let s = SpotLight::smooth(Vec3::ZERO, -Vec3::Y, Vec3::ONE, inner, outer).unwrap();
+        assert_eq!(s.falloff(1.0), 1.0);
+        assert_eq!(s.falloff(inner.cos() + 1e-6), 1.0);
+        let c = 0.5 * (inner.cos() + outer.cos());
+        assert!((s.falloff(c) - 0.25).abs() < 1e-5, "{}", s.falloff(c));
+        assert_eq!(s.falloff(outer.cos() - 1e-6), 0.0);
+        let n = 200_000;
+        let mut sum = 0.0f64;
+        for i in 0..n {
+            let mu = -1.0 + 2.0 * (i as f64 + 0.5) / n as f64;
+            sum += s.falloff(mu as f32) as f64;
+        }
+        let numeric = 2.0 * PI * sum * 2.0 / n as f64;
+        let w = s.solid_angle_weight();
+        assert!((numeric - w).abs() < 1e-4 * w, "{numeric} vs {w}");
+        // an inner cone of 0 is allowed; inner >= outer is not
+        assert!(SpotLight::smooth(Vec3::ZERO, Vec3::Y, Vec3::ONE, 0.0, 0.5).is_ok());
+        assert!(SpotLight::smooth(Vec3::ZERO, Vec3::Y, Vec3::ONE, 0.5, 0.5).is_err());
+        assert!(SpotLight::smooth(Vec3::ZERO, Vec3::Y, Vec3::ONE, 0.1, 2.0).is_err());
     }
 
     #[test]

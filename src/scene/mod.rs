@@ -15,6 +15,7 @@ mod alpha;
 mod builder;
 mod collada;
 mod cse;
+mod gltf;
 mod input;
 mod instances;
 pub mod maps;
@@ -41,6 +42,7 @@ use std::sync::Arc;
 
 pub use alpha::AlphaMask;
 pub use builder::{SceneBuilder, WorldCamera, render_origin};
+pub use gltf::LUMENS_PER_WATT;
 use input::read_scene_text;
 pub(crate) use input::{Content, not_a_file, read_bounded};
 pub use instances::{NO_OVERRIDE, PrototypeShading, SceneInstances};
@@ -191,6 +193,14 @@ fn fov_for_focal(f: f32, height: u32) -> f32 {
     2.0 * (height as f32 / (2.0 * f)).atan().to_degrees()
 }
 
+/// Choices a scene file leaves to whoever reads it.
+#[derive(Debug, Clone, Default)]
+pub struct LoadOptions {
+    /// The camera to render through, by name, in a format that holds
+    /// several (glTF): `None` takes the file's first.
+    pub camera: Option<String>,
+}
+
 /// Where one mesh's triangles sit in the flat arrays (for messages).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct MeshRange {
@@ -298,9 +308,14 @@ pub struct Scene {
 impl Scene {
     /// Load a scene by extension: `.toml` (scene file), `.obj` or `.ply`
     /// (a bare mesh, framed automatically; lit by a white environment if it
-    /// has no emitters), `.xml` (Mitsuba 3), `.dae` (CS184 COLLADA) or
-    /// `.test` (CSE 167/168).
+    /// has no emitters), `.xml` (Mitsuba 3), `.dae` (CS184 COLLADA),
+    /// `.test` (CSE 167/168), or `.gltf` and `.glb` (glTF 2.0).
     pub fn load(path: &Path) -> Result<Scene> {
+        Self::load_with(path, &LoadOptions::default())
+    }
+
+    /// [`Scene::load`] with the choices the file leaves to its reader.
+    pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene> {
         let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
         if meta.is_dir() {
             return Err(Error::input(
@@ -314,6 +329,13 @@ impl Scene {
             .and_then(|e| e.to_str())
             .map(|e| e.to_ascii_lowercase())
             .unwrap_or_default();
+        if options.camera.is_some() && !matches!(ext.as_str(), "gltf" | "glb") {
+            return Err(Error::input(
+                path,
+                None,
+                "--camera picks one of a glTF file's cameras; this format has one camera",
+            ));
+        }
         match ext.as_str() {
             "toml" => toml_file::load(path),
             "obj" => obj::load_bare(path),
@@ -321,11 +343,12 @@ impl Scene {
             "xml" => mitsuba::load(path),
             "test" => cse::load(path),
             "dae" => collada::load(path),
+            "gltf" | "glb" => gltf::load(path, options),
             _ => Err(Error::input(
                 path,
                 None,
                 format!(
-                    "unknown scene format `.{ext}` (expected .toml, .obj, .ply, Mitsuba 3 .xml, CS184 .dae or CSE 167/168 .test)"
+                    "unknown scene format `.{ext}` (expected .toml, .obj, .ply, Mitsuba 3 .xml, CS184 .dae, CSE 167/168 .test, or glTF 2.0 .gltf or .glb)"
                 ),
             )),
         }

@@ -510,6 +510,9 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
             num(l.cutoff_angle()),
             num(l.beam_width())
         );
+        if l.falloff_kind() == crate::light::Falloff::Smooth {
+            let _ = writeln!(t, "falloff = \"smooth\"");
+        }
     }
     for l in &scene.panel_lights {
         let _ = write!(

@@ -71,6 +71,10 @@ pub struct RenderArgs {
     /// as in the course, else the distance to the point looked at].
     #[arg(short = 'd', long = "focal-distance", allow_negative_numbers = true)]
     focal_distance: Option<f32>,
+    /// The camera to render through, by name, in a glTF file with several
+    /// [the file's first perspective camera].
+    #[arg(long = "camera", value_name = "NAME")]
+    camera: Option<String>,
     /// Vector instruction set of the estimator's kernels: auto (the widest
     /// the CPU has), avx512, avx2 or scalar (the x86-64 baseline). The
     /// image is the same bits on every level [env EMBERTRACE_SIMD, else auto].
@@ -331,7 +335,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
 
     let t0 = Instant::now();
-    let mut scene = Scene::load(&args.scene)?;
+    let options = crate::scene::LoadOptions {
+        camera: args.camera.clone(),
+    };
+    let mut scene = Scene::load_with(&args.scene, &options)?;
     if args.lens_radius.is_some() || args.focal_distance.is_some() {
         scene.lens = lens_from_flags(&scene, &args.scene, args.lens_radius, args.focal_distance)?;
     }

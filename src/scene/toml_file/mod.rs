@@ -348,6 +348,7 @@ struct LightToml {
     target: Option<Exact<f64, 3>>,
     cutoff_angle: Option<f32>,
     beam_width: Option<f32>,
+    falloff: Option<String>,
     center: Option<Exact<f64, 3>>,
     dim_x: Option<Exact<f32, 3>>,
     dim_y: Option<Exact<f32, 3>>,
@@ -632,6 +633,7 @@ pub fn load(path: &Path) -> Result<Scene> {
             ("target", l.target.is_some()),
             ("cutoff_angle", l.cutoff_angle.is_some()),
             ("beam_width", l.beam_width.is_some()),
+            ("falloff", l.falloff.is_some()),
             ("center", l.center.is_some()),
             ("dim_x", l.dim_x.is_some()),
             ("dim_y", l.dim_y.is_some()),
@@ -648,6 +650,7 @@ pub fn load(path: &Path) -> Result<Scene> {
                 "intensity",
                 "cutoff_angle",
                 "beam_width",
+                "falloff",
             ],
             "panel" => &["center", "dim_x", "dim_y", "facing", "radiance"],
             other => {
@@ -744,14 +747,31 @@ pub fn load(path: &Path) -> Result<Scene> {
                 let cutoff = l
                     .cutoff_angle
                     .unwrap_or(crate::light::spot::DEFAULT_CUTOFF_ANGLE);
-                let light = SpotLight::new(Vec3::ZERO, direction, i, cutoff, l.beam_width)
-                    .map_err(|m| {
-                        fail(if direction == Vec3::ZERO && l.target.is_some() {
-                            "spot light: `target` must differ from `position`".to_string()
-                        } else {
-                            m
-                        })
-                    })?;
+                let light = match l.falloff.as_deref() {
+                    None | Some("linear") => {
+                        SpotLight::new(Vec3::ZERO, direction, i, cutoff, l.beam_width)
+                    }
+                    Some("smooth") => SpotLight::smooth(
+                        Vec3::ZERO,
+                        direction,
+                        i,
+                        l.beam_width.unwrap_or(cutoff * 0.75).to_radians(),
+                        cutoff.to_radians(),
+                    ),
+                    Some(other) => {
+                        return Err(fail(format!(
+                            "spot light: `falloff` must be \"linear\" or \"smooth\", got \"{}\"",
+                            crate::error::one_line(other)
+                        )));
+                    }
+                }
+                .map_err(|m| {
+                    fail(if direction == Vec3::ZERO && l.target.is_some() {
+                        "spot light: `target` must differ from `position`".to_string()
+                    } else {
+                        m
+                    })
+                })?;
                 spot_lights.push((p, light));
             }
             _ => {
