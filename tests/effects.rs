@@ -243,6 +243,12 @@ f 1/1/1 2/2/2 3/3/3\nf 1/1/1 3/3/3 4/4/4\n";
             ),
         ),
         (
+            "metallic roughness",
+            format!(
+                "{room}[[mesh]]\nfile = \"quad.obj\"\nmaterial = {{ type = \"metallic_roughness\", base_color = [0.6, 0.4, 0.2], metallic = 0.3, roughness = 0.4, texture = \"tex.png\", metallic_roughness = {{ texture = \"tex.png\" }} }}\n"
+            ),
+        ),
+        (
             "emissive sphere",
             format!(
                 "{room}[[sphere]]\ncenter = [0.3, 0.5, 0.2]\nradius = 0.2\nmaterial = {{ emission = [3.0, 3.0, 3.0] }}\n"

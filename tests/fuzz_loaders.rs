@@ -1,8 +1,8 @@
 //! A bounded, deterministic mutation fuzzer for every scene loader (issue 4
 //! item 5, hard case 28): the TOML scene, the OBJ mesh (through tobj), its
 //! MTL library, the `[[procedural]]` source, PLY meshes (ASCII and both
-//! binary byte orders), Mitsuba 3 XML scenes, CS184 COLLADA `.dae` scenes
-//! and CSE 167/168 `.test` scenes.
+//! binary byte orders), Mitsuba 3 XML scenes, CS184 COLLADA `.dae` scenes,
+//! CSE 167/168 `.test` scenes and glTF 2.0 (`.gltf` and `.glb`).
 //! Each input is a bundled or hand-written seed file with one to four random
 //! mutations (byte changes, hostile tokens such as `nan`, `1e30`,
 //! `4294967296`, huge indices or counts, deleted or repeated ranges,
@@ -795,5 +795,29 @@ fn fuzz_mitsuba_xml() {
         "scene.xml",
         &[MITSUBA.as_bytes(), cbox.as_bytes()],
         "scene.xml",
+    );
+}
+
+#[test]
+fn fuzz_gltf() {
+    // the bundled box as JSON (mutations reach the JSON and the base64
+    // buffer) and as GLB (the chunk headers and the binary data)
+    let json = include_str!("../scenes/cornell-box.gltf");
+    // textures, a normal map, a camera and a spot light (tests/gltf.rs)
+    let textured = include_str!("data/gltf/textured.gltf");
+    let glb: &[u8] = include_bytes!("../scenes/cornell-box.glb");
+    fuzz(
+        "gltf",
+        &[("scene.gltf", "")],
+        "scene.gltf",
+        &[json.as_bytes(), textured.as_bytes()],
+        "scene.gltf",
+    );
+    fuzz(
+        "glb",
+        &[("scene.glb", "")],
+        "scene.glb",
+        &[glb],
+        "scene.glb",
     );
 }

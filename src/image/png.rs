@@ -135,10 +135,7 @@ pub type DecodedImage = (u32, u32, Vec<f32>, Option<Vec<f32>>);
 /// alpha)`, the colour as [`read_png_as`] gives it and the alpha channel
 /// (linear, in `[0, 1]`) when the image has one. The error says what is
 /// wrong in one line.
-pub fn decode_image_bytes(
-    bytes: &[u8],
-    raw: bool,
-) -> std::result::Result<DecodedImage, String> {
+pub fn decode_image_bytes(bytes: &[u8], raw: bool) -> std::result::Result<DecodedImage, String> {
     let format = ::image::guess_format(bytes)
         .map_err(|_| "not a PNG or JPEG image (unrecognised first bytes)".to_string())?;
     if !matches!(

@@ -82,8 +82,13 @@ impl Once {
 /// Load a `.gltf` or `.glb` scene.
 pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
     let bytes = super::read_bounded(path, MAX_SCENE_FILE_BYTES, super::Content::Magic(b"", ""))?;
-    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| parse_error(path, &bytes, e))?;
-    let doc = &gltf.document;
+    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(&bytes)
+        .map_err(|e| parse_error(path, &bytes, e))?;
+    let root = document.into_json();
+    precheck(&root)
+        .map_err(|m| Error::input(path, None, format!("not a valid glTF 2.0 file: {m}")))?;
+    let document = gltf::Document::from_json(root).map_err(|e| parse_error(path, &bytes, e))?;
+    let doc = &document;
     let mut once = Once::default();
     for ext in doc.extensions_required() {
         if !SUPPORTED.contains(&ext) {
@@ -106,7 +111,7 @@ pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
         }
     }
     let mut files = Vec::new();
-    let buffers = buffers::load_buffers(path, doc, gltf.blob.clone(), &mut files)?;
+    let buffers = buffers::load_buffers(path, doc, blob, &mut files)?;
     let mut b = SceneBuilder::new(path);
     let mut materials = Materials::new(path, &buffers);
 
@@ -337,6 +342,49 @@ pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
     s.notes.extend(once.notes);
     s.mesh_files.extend(files);
     Ok(b.build())
+}
+
+/// What the `gltf` crate (1.4.1) assumes and its validation does not check,
+/// found by fuzzing: its validation indexes a primitive's attribute
+/// accessors without a bounds check (gltf-json's `mesh.rs`), and its
+/// accessors unwrap an image's `uri` or `bufferView` (and a view's
+/// `mimeType`) and a camera's object of its `type`.
+fn precheck(root: &gltf::json::Root) -> std::result::Result<(), String> {
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for prim in &mesh.primitives {
+            for index in prim.attributes.values() {
+                if index.value() >= root.accessors.len() {
+                    return Err(format!(
+                        "mesh {m} names accessor {} of {}",
+                        index.value(),
+                        root.accessors.len()
+                    ));
+                }
+            }
+        }
+    }
+    for (i, image) in root.images.iter().enumerate() {
+        match (&image.uri, &image.buffer_view, &image.mime_type) {
+            (Some(_), None, _) | (None, Some(_), Some(_)) => {}
+            (None, Some(_), None) => {
+                return Err(format!("image {i}: a bufferView needs a mimeType"));
+            }
+            _ => return Err(format!("image {i} needs exactly one of uri and bufferView")),
+        }
+    }
+    for (i, camera) in root.cameras.iter().enumerate() {
+        use gltf::json::camera::Type;
+        use gltf::json::validation::Checked;
+        let ok = match camera.type_ {
+            Checked::Valid(Type::Perspective) => camera.perspective.is_some(),
+            Checked::Valid(Type::Orthographic) => camera.orthographic.is_some(),
+            Checked::Invalid => true,
+        };
+        if !ok {
+            return Err(format!("camera {i} lacks the object its type names"));
+        }
+    }
+    Ok(())
 }
 
 /// A parse error: the JSON's line where serde names one.
