@@ -588,7 +588,7 @@ fn textured_asset() -> Asset {
     );
     let cam = a.push(
         "cameras",
-        json!({"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}),
+        json!({"name": "tilted", "type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}),
     );
     let s = (std::f64::consts::PI / 8.0).sin();
     let c = (std::f64::consts::PI / 8.0).cos();
@@ -698,4 +698,41 @@ fn write_fuzz_seed() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/gltf");
     std::fs::create_dir_all(&dir).unwrap();
     textured_asset().write(&dir, "textured.gltf");
+}
+
+/// `render --camera NAME` reaches the loader: a name the file lacks is a
+/// one-line error, a non-zero exit and no image.
+#[test]
+fn render_camera_flag_picks_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = textured_asset().write(dir.path(), "asset.gltf");
+    let out = dir.path().join("x.png");
+    let args = |name: &'static str| {
+        vec![
+            "render".to_string(),
+            path.to_str().unwrap().to_string(),
+            "-o".into(),
+            out.to_str().unwrap().into(),
+            "--spp".into(),
+            "1".into(),
+            "-r".into(),
+            "8".into(),
+            "8".into(),
+            "--camera".into(),
+            name.into(),
+        ]
+    };
+    let run = |a: Vec<String>| {
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        common::run(dir.path(), &a)
+    };
+    let o = run(args("nowhere"));
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("no camera named `nowhere`"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(!out.exists());
+    let o = run(args("tilted"));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.exists());
 }
