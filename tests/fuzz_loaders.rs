@@ -2,7 +2,7 @@
 //! item 5, hard case 28): the TOML scene, the OBJ mesh (through tobj), its
 //! MTL library, the `[[procedural]]` source, PLY meshes (ASCII and both
 //! binary byte orders), Mitsuba 3 XML scenes, CS184 COLLADA `.dae` scenes,
-//! CSE 167/168 `.test` scenes and glTF 2.0 (`.gltf` and `.glb`).
+//! CSE 167/168 `.test` scenes, glTF 2.0 (`.gltf` and `.glb`) and pbrt-v4.
 //! Each input is a bundled or hand-written seed file with one to four random
 //! mutations (byte changes, hostile tokens such as `nan`, `1e30`,
 //! `4294967296`, huge indices or counts, deleted or repeated ranges,
@@ -819,5 +819,51 @@ fn fuzz_gltf() {
         "scene.glb",
         &[glb],
         "scene.glb",
+    );
+}
+
+/// Transforms, named materials, objects, lights and every shape the pbrt
+/// loader reads, as one seed.
+const PBRT: &str = r#"Scale -1 1 1
+LookAt 0 1 4  0 1 0  0 1 0
+Camera "perspective" "float fov" [ 40 ] "float lensradius" 0.01 "float focaldistance" 4
+Film "rgb" "integer xresolution" [ 32 ] "integer yresolution" [ 24 ]
+Sampler "zsobol" "integer pixelsamples" 4
+Integrator "path" "integer maxdepth" [ 5 ]
+WorldBegin
+MakeNamedMaterial "gold" "string type" "conductor" "spectrum eta" "metal-Au-eta" "spectrum k" "metal-Au-k" "float roughness" 0.1
+MakeNamedMaterial "coat" "string type" "coateddiffuse" "rgb reflectance" [ 0.5 0.4 0.3 ] "float roughness" 0.05
+ObjectBegin "q"
+  Shape "bilinearmesh" "point3 P" [ 0 0 0 1 0 0 0 1 0 1 1 0 ]
+ObjectEnd
+AttributeBegin
+  Translate 1 0 0
+  Rotate 30 0 1 0
+  ObjectInstance "q"
+AttributeEnd
+AttributeBegin
+  NamedMaterial "gold"
+  Shape "sphere" "float radius" 0.5
+AttributeEnd
+AttributeBegin
+  AreaLightSource "diffuse" "rgb L" [ 4 4 4 ] "bool twosided" true
+  ReverseOrientation
+  NamedMaterial "coat"
+  Shape "trianglemesh" "point3 P" [ -1 2 -1 1 2 -1 1 2 1 ] "normal N" [ 0 -1 0 0 -1 0 0 -1 0 ] "point2 uv" [ 0 0 1 0 1 1 ]
+AttributeEnd
+LightSource "spot" "rgb I" [ 5 5 5 ] "point3 from" [ 0 3 0 ] "point3 to" [ 0 0 0 ] "float coneangle" 30
+LightSource "distant" "rgb L" [ 1 1 1 ]
+LightSource "infinite" "rgb L" [ 0.1 0.1 0.1 ]
+"#;
+
+#[test]
+fn fuzz_pbrt() {
+    let cornell = include_str!("../scenes/cornell-box.pbrt");
+    fuzz(
+        "pbrt",
+        &[("scene.pbrt", "")],
+        "scene.pbrt",
+        &[cornell.as_bytes(), PBRT.as_bytes()],
+        "scene.pbrt",
     );
 }

@@ -134,6 +134,12 @@ fn gltf_and_glb_cornell_boxes_match_mitsuba() {
     matches_mitsuba("cornell-box.glb");
 }
 
+/// The same box as a pbrt-v4 scene (`scenes/make_cornell_pbrt.py`).
+#[test]
+fn pbrt_cornell_box_matches_mitsuba() {
+    matches_mitsuba("cornell-box.pbrt");
+}
+
 /// The whole-image and block comparisons of [`cornell_box_matches_mitsuba`]
 /// for the box written as `file`.
 fn matches_mitsuba(file: &str) {

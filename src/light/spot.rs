@@ -39,6 +39,11 @@
 //! integral over the sphere is `2 pi ((1 - cos inner) + (cos inner - cos
 //! outer) / 3)`.
 //!
+//! pbrt-v4's spot ([`SpotLight::smoothstep`], `falloff = "smoothstep"`)
+//! takes the smoothstep `t^2 (3 - 2 t)` of the same ramp, between its
+//! `coneangle` and `coneangle - conedelta`; its integral is `2 pi ((1 -
+//! cos inner) + (cos inner - cos outer) / 2)`.
+//!
 //! Scene form (angles in degrees):
 //!
 //! ```toml
@@ -49,7 +54,7 @@
 //! intensity = [10.0, 9.0, 8.0]  # W/sr on the axis, or one number
 //! cutoff_angle = 30.0           # default 20
 //! beam_width = 20.0             # default 3/4 of cutoff_angle
-//! falloff = "linear"            # or "smooth" (glTF's; beam_width may be 0)
+//! falloff = "linear"            # or "smooth" (glTF's) or "smoothstep" (pbrt-v4's); beam_width may be 0 with either
 //! ```
 
 use super::DeltaLightSample;
@@ -66,6 +71,8 @@ pub enum Falloff {
     Linear,
     /// The square of a ramp linear in the cosine (glTF's).
     Smooth,
+    /// Hermite's smoothstep `t^2 (3 - 2 t)` of that ramp (pbrt-v4's).
+    SmoothStep,
 }
 
 /// A spot light.
@@ -169,6 +176,21 @@ impl SpotLight {
         Ok(s)
     }
 
+    /// pbrt-v4's spot light: full intensity within `inner` radians of the
+    /// axis, none beyond `outer`, the smoothstep falloff between (module
+    /// docs), with the errors of [`SpotLight::smooth`].
+    pub fn smoothstep(
+        position: Vec3,
+        direction: Vec3,
+        intensity: Vec3,
+        inner: f32,
+        outer: f32,
+    ) -> Result<Self, String> {
+        let mut s = Self::smooth(position, direction, intensity, inner, outer)?;
+        s.falloff = Falloff::SmoothStep;
+        Ok(s)
+    }
+
     /// The falloff between beam and cutoff.
     pub fn falloff_kind(&self) -> Falloff {
         self.falloff
@@ -201,10 +223,14 @@ impl SpotLight {
             0.0
         } else if cos_theta >= self.cos_beam {
             1.0
-        } else if self.falloff == Falloff::Smooth {
+        } else if self.falloff != Falloff::Linear {
             let t = (cos_theta - self.cos_cutoff) / (self.cos_beam - self.cos_cutoff);
             let t = t.clamp(0.0, 1.0);
-            t * t
+            if self.falloff == Falloff::Smooth {
+                t * t
+            } else {
+                t * t * (3.0 - 2.0 * t)
+            }
         } else {
             ((self.cutoff - cos_theta.min(1.0).acos()) * self.inv_transition).clamp(0.0, 1.0)
         }
@@ -245,11 +271,17 @@ impl SpotLight {
     pub fn solid_angle_weight(&self) -> f64 {
         let c = (self.cutoff_deg as f64).to_radians();
         let b = (self.beam_deg as f64).to_radians();
-        if self.falloff == Falloff::Smooth {
-            // 1 - cos x = 2 sin^2(x / 2), without cancellation
+        if self.falloff != Falloff::Linear {
+            // 1 - cos x = 2 sin^2(x / 2), without cancellation; the ramp's
+            // mean is 1/3 squared, 1/2 smoothstepped
             let one_minus = |x: f64| 2.0 * (0.5 * x).sin().powi(2);
             let (ob, oc) = (one_minus(b), one_minus(c));
-            return 2.0 * std::f64::consts::PI * (ob + (oc - ob) / 3.0);
+            let mean = if self.falloff == Falloff::Smooth {
+                1.0 / 3.0
+            } else {
+                0.5
+            };
+            return 2.0 * std::f64::consts::PI * (ob + (oc - ob) * mean);
         }
         let h = 0.5 * (c - b);
         let sinc = if h < 1e-4 {
@@ -288,26 +320,30 @@ mod tests {
         SpotLight::new(Vec3::new(0.0, 2.0, 0.0), -Vec3::Y, Vec3::ONE, cutoff, beam).unwrap()
     }
 
-    /// glTF's falloff: the square of the ramp in the cosine, and its
-    /// integral over the sphere against a midpoint rule in the cosine.
+    /// glTF's falloff (the square of the ramp in the cosine) and pbrt-v4's
+    /// (its smoothstep), and their integrals over the sphere against a
+    /// midpoint rule in the cosine.
     #[test]
-    fn smooth_falloff_is_gltfs() {
+    fn smooth_falloffs_are_gltfs_and_pbrts() {
         let (inner, outer) = (10f32.to_radians(), 40f32.to_radians());
-        let s = SpotLight::smooth(Vec3::ZERO, -Vec3::Y, Vec3::ONE, inner, outer).unwrap();
-        assert_eq!(s.falloff(1.0), 1.0);
-        assert_eq!(s.falloff(inner.cos() + 1e-6), 1.0);
+        let smooth = SpotLight::smooth(Vec3::ZERO, -Vec3::Y, Vec3::ONE, inner, outer).unwrap();
+        let step = SpotLight::smoothstep(Vec3::ZERO, -Vec3::Y, Vec3::ONE, inner, outer).unwrap();
         let c = 0.5 * (inner.cos() + outer.cos());
-        assert!((s.falloff(c) - 0.25).abs() < 1e-5, "{}", s.falloff(c));
-        assert_eq!(s.falloff(outer.cos() - 1e-6), 0.0);
-        let n = 200_000;
-        let mut sum = 0.0f64;
-        for i in 0..n {
-            let mu = -1.0 + 2.0 * (i as f64 + 0.5) / n as f64;
-            sum += s.falloff(mu as f32) as f64;
+        for (s, mid) in [(smooth, 0.25), (step, 0.5)] {
+            assert_eq!(s.falloff(1.0), 1.0);
+            assert_eq!(s.falloff(inner.cos() + 1e-6), 1.0);
+            assert!((s.falloff(c) - mid).abs() < 1e-5, "{}", s.falloff(c));
+            assert_eq!(s.falloff(outer.cos() - 1e-6), 0.0);
+            let n = 200_000;
+            let mut sum = 0.0f64;
+            for i in 0..n {
+                let mu = -1.0 + 2.0 * (i as f64 + 0.5) / n as f64;
+                sum += s.falloff(mu as f32) as f64;
+            }
+            let numeric = 2.0 * PI * sum * 2.0 / n as f64;
+            let w = s.solid_angle_weight();
+            assert!((numeric - w).abs() < 1e-4 * w, "{numeric} vs {w}");
         }
-        let numeric = 2.0 * PI * sum * 2.0 / n as f64;
-        let w = s.solid_angle_weight();
-        assert!((numeric - w).abs() < 1e-4 * w, "{numeric} vs {w}");
         // an inner cone of 0 is allowed; inner >= outer is not
         assert!(SpotLight::smooth(Vec3::ZERO, Vec3::Y, Vec3::ONE, 0.0, 0.5).is_ok());
         assert!(SpotLight::smooth(Vec3::ZERO, Vec3::Y, Vec3::ONE, 0.5, 0.5).is_err());

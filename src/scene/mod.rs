@@ -22,6 +22,7 @@ pub mod maps;
 mod mesh;
 mod mitsuba;
 mod obj;
+mod pbrt;
 mod ply;
 pub mod procedural;
 mod toml_file;
@@ -309,7 +310,8 @@ impl Scene {
     /// Load a scene by extension: `.toml` (scene file), `.obj` or `.ply`
     /// (a bare mesh, framed automatically; lit by a white environment if it
     /// has no emitters), `.xml` (Mitsuba 3), `.dae` (CS184 COLLADA),
-    /// `.test` (CSE 167/168), or `.gltf` and `.glb` (glTF 2.0).
+    /// `.test` (CSE 167/168), `.gltf` and `.glb` (glTF 2.0) or `.pbrt`
+    /// (pbrt-v4).
     pub fn load(path: &Path) -> Result<Scene> {
         Self::load_with(path, &LoadOptions::default())
     }
@@ -344,11 +346,12 @@ impl Scene {
             "test" => cse::load(path),
             "dae" => collada::load(path),
             "gltf" | "glb" => gltf::load(path, options),
+            "pbrt" => pbrt::load(path, options),
             _ => Err(Error::input(
                 path,
                 None,
                 format!(
-                    "unknown scene format `.{ext}` (expected .toml, .obj, .ply, Mitsuba 3 .xml, CS184 .dae, CSE 167/168 .test, or glTF 2.0 .gltf or .glb)"
+                    "unknown scene format `.{ext}` (expected .toml, .obj, .ply, Mitsuba 3 .xml, CS184 .dae, CSE 167/168 .test, glTF 2.0 .gltf or .glb, or pbrt-v4 .pbrt)"
                 ),
             )),
         }

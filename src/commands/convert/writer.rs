@@ -510,8 +510,14 @@ pub fn convert(scene: &Scene, out: &Path) -> Result<Written> {
             num(l.cutoff_angle()),
             num(l.beam_width())
         );
-        if l.falloff_kind() == crate::light::Falloff::Smooth {
-            let _ = writeln!(t, "falloff = \"smooth\"");
+        match l.falloff_kind() {
+            crate::light::Falloff::Linear => {}
+            crate::light::Falloff::Smooth => {
+                let _ = writeln!(t, "falloff = \"smooth\"");
+            }
+            crate::light::Falloff::SmoothStep => {
+                let _ = writeln!(t, "falloff = \"smoothstep\"");
+            }
         }
     }
     for l in &scene.panel_lights {

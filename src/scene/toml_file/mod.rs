@@ -758,9 +758,16 @@ pub fn load(path: &Path) -> Result<Scene> {
                         l.beam_width.unwrap_or(cutoff * 0.75).to_radians(),
                         cutoff.to_radians(),
                     ),
+                    Some("smoothstep") => SpotLight::smoothstep(
+                        Vec3::ZERO,
+                        direction,
+                        i,
+                        l.beam_width.unwrap_or(cutoff * 0.75).to_radians(),
+                        cutoff.to_radians(),
+                    ),
                     Some(other) => {
                         return Err(fail(format!(
-                            "spot light: `falloff` must be \"linear\" or \"smooth\", got \"{}\"",
+                            "spot light: `falloff` must be \"linear\", \"smooth\" or \"smoothstep\", got \"{}\"",
                             crate::error::one_line(other)
                         )));
                     }
