@@ -334,3 +334,59 @@ fn the_pbrt_box_converts_to_the_same_bits() {
     };
     assert_eq!(render(&src, "a.exr"), render(&toml, "b.exr"));
 }
+
+/// An image infinite light: pbrt-v4's equal-area octahedral map, whose
+/// centre is the light frame's +z, turned up by the usual `Rotate -90 1 0 0`;
+/// its +x (red here) lands on pbrt's world +x, mirrored or not.
+#[test]
+fn an_image_infinite_light_is_read_in_its_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 16u32;
+    let mut rgb = Vec::new();
+    for y in 0..n {
+        for x in 0..n {
+            let centre = (6..10).contains(&x) && (6..10).contains(&y);
+            // the light frame's +x: the middle of the square's right edge
+            let east = x >= 13 && (6..10).contains(&y);
+            rgb.extend_from_slice(&match (centre, east) {
+                (true, _) => [255u8; 3],
+                (_, true) => [255, 0, 0],
+                _ => [0; 3],
+            });
+        }
+    }
+    {
+        use image::ImageEncoder;
+        let f = std::fs::File::create(dir.path().join("sky.png")).unwrap();
+        image::codecs::png::PngEncoder::new(f)
+            .write_image(&rgb, n, n, image::ExtendedColorType::Rgb8)
+            .unwrap();
+    }
+    for (camera, mirrored) in [
+        (EXPORTED_CAMERA, false),
+        (
+            "LookAt 0 0 10  0 0 0  0 1 0\nCamera \"perspective\"\n",
+            true,
+        ),
+    ] {
+        let text = format!(
+            "{camera}WorldBegin\nAttributeBegin\n  Rotate -90 1 0 0\n  LightSource \"infinite\" \"string filename\" \"sky.png\" \"float scale\" 2\nAttributeEnd\n"
+        );
+        let scene = Scene::load(&write(dir.path(), "sky.pbrt", &text)).unwrap();
+        let env = scene.environment_map.as_ref().unwrap();
+        assert_eq!(
+            env.eval(Vec3::Y),
+            Vec3::splat(2.0),
+            "mirrored world: {mirrored}"
+        );
+        assert_eq!(env.eval(-Vec3::Y), Vec3::ZERO);
+        // pbrt's world +x is ours in the exported scene, -x in the mirrored one
+        let east = if mirrored { -Vec3::X } else { Vec3::X };
+        assert_eq!(
+            env.eval(east),
+            Vec3::new(2.0, 0.0, 0.0),
+            "mirrored world: {mirrored}"
+        );
+        assert_eq!(env.eval(-east), Vec3::ZERO);
+    }
+}

@@ -204,6 +204,82 @@ pub fn from_course_layout(course: &ImageTexture) -> Result<ImageTexture> {
     ImageTexture::from_linear_rgb(w as u32, rows as u32, rgb)
 }
 
+/// pbrt-v4's equal-area octahedral mapping (Clarberg 2008, "Fast
+/// Equal-Area Mapping of the (Hemi)Sphere using SIMD"; pbrt-v4's
+/// `EqualAreaSquareToSphere`): the unit square onto the unit sphere, `z`
+/// up at the centre, in f64.
+pub fn equal_area_square_to_sphere(p: glam::DVec2) -> glam::DVec3 {
+    let (u, v) = (2.0 * p.x - 1.0, 2.0 * p.y - 1.0);
+    let (up, vp) = (u.abs(), v.abs());
+    let signed = 1.0 - (up + vp);
+    let r = 1.0 - signed.abs();
+    let phi = if r == 0.0 { 1.0 } else { (vp - up) / r + 1.0 } * std::f64::consts::FRAC_PI_4;
+    let z = (1.0 - r * r).copysign(signed);
+    let s = r * (2.0 - r * r).max(0.0).sqrt();
+    glam::DVec3::new(phi.cos().copysign(u) * s, phi.sin().copysign(v) * s, z)
+}
+
+/// The inverse of [`equal_area_square_to_sphere`] for a unit `d`.
+pub fn equal_area_sphere_to_square(d: glam::DVec3) -> glam::DVec2 {
+    let (x, y, z) = (d.x.abs(), d.y.abs(), d.z.abs());
+    let r = (1.0 - z).max(0.0).sqrt();
+    let (a, b) = (x.max(y), x.min(y));
+    let t = if a == 0.0 { 0.0 } else { b / a };
+    let mut phi = t.atan() * std::f64::consts::FRAC_2_PI;
+    if x < y {
+        phi = 1.0 - phi;
+    }
+    let mut v = phi * r;
+    let mut u = r - v;
+    if d.z < 0.0 {
+        std::mem::swap(&mut u, &mut v);
+        u = 1.0 - u;
+        v = 1.0 - v;
+    }
+    glam::DVec2::new(0.5 * (u.copysign(d.x) + 1.0), 0.5 * (v.copysign(d.y) + 1.0))
+}
+
+/// pbrt-v4's image infinite light, an equal-area octahedral `map` (square;
+/// row 0 at `v = 0`), resampled into this module's equirectangular layout
+/// (`2n` by `n + 1` texels for an `n`-texel map): each texel reads the map
+/// bilinearly (clamped at its edges) at the direction `to_map` takes its
+/// direction to. Resampling blurs features at the texel scale; the
+/// total radiance is kept to that accuracy.
+pub fn from_equal_area(
+    map: &ImageTexture,
+    to_map: impl Fn(Vec3) -> glam::DVec3,
+) -> Result<ImageTexture> {
+    let n = map.width();
+    if map.height() != n {
+        return Err(Error::Settings(format!(
+            "an equal-area octahedral map must be square, got {} x {}",
+            map.width(),
+            map.height()
+        )));
+    }
+    let (w, h) = (2 * n, n + 1);
+    let lookup = |p: glam::DVec2| {
+        let x = (p.x * n as f64 - 0.5).clamp(0.0, (n - 1) as f64);
+        let y = (p.y * n as f64 - 0.5).clamp(0.0, (n - 1) as f64);
+        let (ix, iy) = ((x as u32).min(n - 1), (y as u32).min(n - 1));
+        let (ix1, iy1) = ((ix + 1).min(n - 1), (iy + 1).min(n - 1));
+        let (fx, fy) = ((x - ix as f64) as f32, (y - iy as f64) as f32);
+        let t = |x, y| map.texel(x, y);
+        let top = (1.0 - fx) * t(ix, iy) + fx * t(ix1, iy);
+        let bottom = (1.0 - fx) * t(ix, iy1) + fx * t(ix1, iy1);
+        (1.0 - fy) * top + fy * bottom
+    };
+    let mut rgb = Vec::with_capacity((w * h * 3) as usize);
+    for j in 0..h {
+        for i in 0..w {
+            let d = uv_to_direction(Vec2::new(i as f32 / w as f32, j as f32 / (h - 1) as f32));
+            let m = to_map(d).normalize_or_zero();
+            rgb.extend_from_slice(&lookup(equal_area_sphere_to_square(m)).to_array());
+        }
+    }
+    ImageTexture::from_linear_rgb(w, h, rgb)
+}
+
 impl EnvironmentMap {
     /// The environment of `file` (an image [`ImageTexture::load`] reads),
     /// scaled by `radiance`.
@@ -433,6 +509,58 @@ impl EnvironmentMap {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The mapping and its inverse agree, the centre is `+z`, and equal
+    /// areas of the square cover equal solid angles (a uniform grid's
+    /// directions have the sphere's moments: mean 0, `E[z^2] = 1/3`).
+    #[test]
+    fn equal_area_mapping_round_trips_and_keeps_area() {
+        let c = equal_area_square_to_sphere(glam::DVec2::new(0.5, 0.5));
+        assert!((c - glam::DVec3::Z).length() < 1e-12, "{c}");
+        let n = 400;
+        let (mut mean, mut z2) = (glam::DVec3::ZERO, 0.0);
+        for i in 0..n {
+            for j in 0..n {
+                let p = glam::DVec2::new((i as f64 + 0.5) / n as f64, (j as f64 + 0.5) / n as f64);
+                let d = equal_area_square_to_sphere(p);
+                assert!((d.length() - 1.0).abs() < 1e-12);
+                let q = equal_area_sphere_to_square(d);
+                assert!((q - p).length() < 1e-9, "{p} -> {d} -> {q}");
+                mean += d;
+                z2 += d.z * d.z;
+            }
+        }
+        let m = (n * n) as f64;
+        assert!((mean / m).length() < 1e-3, "{}", mean / m);
+        assert!((z2 / m - 1.0 / 3.0).abs() < 1e-3, "{}", z2 / m);
+    }
+
+    /// A map that is bright in one octant only lights the directions of
+    /// that octant after resampling.
+    #[test]
+    fn an_octahedral_map_resamples_to_its_directions() {
+        let n = 32;
+        let mut rgb = Vec::new();
+        for y in 0..n {
+            for x in 0..n {
+                // the square's top-left quadrant: x < 0, y < 0 on the sphere
+                let on = x < n / 2 - 1 && y < n / 2 - 1 && x + y > 2;
+                rgb.extend_from_slice(&[if on { 1.0 } else { 0.0 }; 3]);
+            }
+        }
+        let map = ImageTexture::from_linear_rgb(n, n, rgb).unwrap();
+        let eq = from_equal_area(&map, |d| d.as_dvec3()).unwrap();
+        let env = EnvironmentMap::new(eq, Vec3::ONE).unwrap();
+        let dir = |x: f32, y: f32, z: f32| Vec3::new(x, y, z).normalize();
+        assert!(env.eval(dir(-1.0, -1.0, 0.5)).x > 0.9);
+        assert_eq!(env.eval(dir(1.0, 1.0, 0.5)).x, 0.0);
+        assert_eq!(env.eval(dir(1.0, -1.0, 0.5)).x, 0.0);
+        let flat = ImageTexture::from_linear_rgb(4, 4, vec![0.25; 48]).unwrap();
+        let eq = from_equal_area(&flat, |d| d.as_dvec3()).unwrap();
+        assert!(eq.texels().iter().all(|t| *t == Vec3::splat(0.25)));
+        let rect = ImageTexture::from_linear_rgb(4, 2, vec![0.25; 24]).unwrap();
+        assert!(from_equal_area(&rect, |d| d.as_dvec3()).is_err());
+    }
     use crate::sampler::Sampler;
 
     /// 0, 2^-149, 0.5, the largest f32 below 1, and 1 (hard case 14).

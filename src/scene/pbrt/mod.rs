@@ -21,7 +21,8 @@
 //!   `albedo` are not reproduced); `Texture "imagemap"` for a reflectance.
 //! - Lights: `AreaLightSource "diffuse"` (`L`, `twosided`, `scale`),
 //!   `LightSource` `point`, `spot` (pbrt's smoothstep falloff), `distant`,
-//!   `infinite` (constant `L`). RGB spectra are taken as RGB (pbrt-v4
+//!   `infinite` (constant `L`, or an image: pbrt-v4's equal-area
+//!   octahedral map, resampled to an equirectangular one). RGB spectra are taken as RGB (pbrt-v4
 //!   normalises an RGB illuminant's spectrum so that it renders as the
 //!   RGB it was given); `blackbody` is rendered white with a warning.
 //!
@@ -38,7 +39,7 @@
 //! an asymmetric scene each way to show the image is pbrt's.
 //!
 //! Anything else (other shapes, materials, textures, media, filters,
-//! `power` on lights, image infinite lights) is a warning with its file and
+//! `power` on lights) is a warning with its file and
 //! line, once per kind, and is left out; a syntax error is an error at its
 //! line.
 
@@ -544,10 +545,8 @@ impl<'a> Loader<'a> {
                 self.b.scene_mut().directional_lights.push(light);
             }
             "infinite" => {
-                if p.get("filename").is_some() {
-                    return Err(p.fail(
-                        "an image infinite light (pbrt-v4's equal-area octahedral map) is not read yet; convert it to an equirectangular map for a TOML scene".into(),
-                    ));
+                if let Some(file) = p.string("filename") {
+                    return self.image_infinite(p, file, scale);
                 }
                 let l = colour(self, "L")?;
                 let s = self.b.scene_mut();
@@ -561,6 +560,45 @@ impl<'a> Loader<'a> {
                 );
             }
         }
+        Ok(())
+    }
+
+    /// An image infinite light: pbrt-v4's equal-area octahedral map in the
+    /// light's frame, resampled into an equirectangular map in ours
+    /// ([`crate::light::envmap::from_equal_area`]).
+    fn image_infinite(&mut self, p: &Params, file: &str, scale: f32) -> Result<()> {
+        let full = p.st.file.parent().unwrap_or(Path::new("")).join(file);
+        if let Some(why) = super::not_a_file(&full) {
+            return Err(p.fail(format!(
+                "infinite light image `{}` {why}",
+                crate::error::one_line(file)
+            )));
+        }
+        if self.b.scene_mut().environment_map.is_some() {
+            return Err(p.fail("a second image infinite light (one is rendered)".into()));
+        }
+        let img = ImageTexture::load(&full).map_err(|e| {
+            p.fail(format!(
+                "infinite light image `{}`: {e}",
+                crate::error::one_line(file)
+            ))
+        })?;
+        // ours -> pbrt's world (the mirror is its own inverse) -> the light's frame
+        let light_from_world = self.attrs.ctm.matrix3.inverse();
+        let mirror = self.mirror.matrix3;
+        let map = crate::light::envmap::from_equal_area(&img, |d| {
+            light_from_world * (mirror * d.as_dvec3())
+        })
+        .map_err(|e| {
+            p.fail(format!(
+                "infinite light image `{}`: {e}",
+                crate::error::one_line(file)
+            ))
+        })?;
+        let env = crate::light::EnvironmentMap::new(map, Vec3::splat(scale))
+            .map_err(|e| p.fail(e.to_string()))?;
+        self.b.scene_mut().environment_map = Some(env);
+        self.files.push(full);
         Ok(())
     }
 
