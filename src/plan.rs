@@ -291,7 +291,7 @@ impl Plan {
         );
         add(
             "glass",
-            of_type("glass"),
+            [of_type("glass"), of_type("thin_glass")].concat(),
             "glass materials",
             "Fresnel reflection and refraction, eta^2 roulette scale (bsdf/glass.rs)",
         );

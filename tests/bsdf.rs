@@ -25,7 +25,7 @@ use common::{batch_means, sidak_z};
 use embertrace::bsdf::fresnel::{fr_conductor, fr_dielectric};
 use embertrace::bsdf::{
     Bsdf, BsdfSample, Bxdf, Conductor, Diffuse, Distribution, Glass, Lobe, Masking,
-    MetallicRoughness, Microfacet, Mirror, Phong, Plastic,
+    MetallicRoughness, Microfacet, Mirror, Phong, Plastic, ThinGlass,
 };
 use embertrace::math::{Vec2, Vec3};
 use embertrace::sampler::Sampler;
@@ -83,6 +83,7 @@ fn zoo() -> Vec<(String, Bsdf)> {
         ),
         ("mirror".into(), Mirror::default().into()),
         ("glass".into(), Glass::default().into()),
+        ("thin glass".into(), ThinGlass::default().into()),
         (
             "glass ior 1.33 tinted".into(),
             Glass {

@@ -385,6 +385,49 @@ radiance = 1.0
     }
 }
 
+/// A thin glass sheet in a white environment: reflected or passed
+/// straight through, every sample has weight 1, so the image is white; at
+/// depth 1 the sheet shows its reflectance and what it transmits of the
+/// sky behind (a sheet refracts nothing, so a path through it sees the sky
+/// at once and depth 1 is already white too).
+#[test]
+fn thin_glass_sheet_in_a_white_environment_is_white() {
+    let quad: &[u8] = b"v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n";
+    let scene = scene_from(
+        r#"
+[camera]
+origin = [0.3, 0.2, 3.0]
+target = [0.0, 0.0, 0.0]
+fov_y = 30.0
+[[mesh]]
+file = "sheet.obj"
+material = { type = "thin_glass", ior = 1.5 }
+[[light]]
+type = "environment"
+radiance = 1.0
+"#,
+        &[("sheet.obj", quad)],
+    );
+    for backend in Backend::available() {
+        for depth in [1, 20] {
+            let settings = IntegratorSettings {
+                max_depth: depth,
+                ..IntegratorSettings::default()
+            };
+            let out = render_with(&scene, backend, None, settings, [16, 16], 4, 1);
+            let img = out.film.to_rgb_f32();
+            let worst = img.iter().map(|v| (v - 1.0).abs()).fold(0.0, f32::max);
+            assert!(worst < 1e-4, "{backend} depth {depth}: off by {worst}");
+            if depth > 1 {
+                assert!(
+                    out.rays.extension >= 16 * 16 * 4,
+                    "{backend}: sheet not hit"
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn point_light_inside_a_diffuse_sphere() {
     // hard case 22: L = rho I / (pi R^2 (1 - rho)) everywhere on the wall

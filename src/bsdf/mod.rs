@@ -6,7 +6,7 @@
 //!   BSDFs ([`Diffuse`], [`Mirror`], [`Conductor`], [`Plastic`], [`Phong`],
 //!   [`MetallicRoughness`]: they see
 //!   `wo.z > 0` and return zero or `None` otherwise). A BSDF that transmits
-//!   ([`Glass`], see [`Bxdf::has_transmission`]) needs to know which side is
+//!   ([`Glass`], [`ThinGlass`], see [`Bxdf::has_transmission`]) needs to know which side is
 //!   inside: its +z is the surface's outward normal and `wo.z < 0` means `wo`
 //!   is inside.
 //! - `eval` returns `f(wo, wi)` **without** the cosine factor; estimators
@@ -34,6 +34,7 @@
 //! | [`Conductor`] | GGX or Beckmann microfacet, delta when smooth | `conductor.rs` |
 //! | [`Plastic`] | GGX or delta coat over a Lambertian base | `plastic.rs` |
 //! | [`Phong`] | Lambertian plus a Phong or GGX-Schlick lobe (CSE 168) | `phong.rs` |
+//! | [`ThinGlass`] | delta reflection + straight delta transmission (a sheet) | `thin_glass.rs` |
 //! | [`MetallicRoughness`] | glTF 2.0: Lambertian and GGX-Schlick mixed by metalness | `metallic_roughness.rs` |
 //!
 //! Each implements [`Bxdf`], so an estimator can be generic over the material
@@ -49,6 +50,7 @@ mod mirror;
 pub mod named_conductors;
 mod phong;
 mod plastic;
+mod thin_glass;
 
 pub use conductor::Conductor;
 pub use diffuse::Diffuse;
@@ -58,6 +60,7 @@ pub use microfacet::{Distribution, Masking, Microfacet};
 pub use mirror::Mirror;
 pub use phong::{Lobe, Phong};
 pub use plastic::{Plastic, PlasticCoats};
+pub use thin_glass::ThinGlass;
 
 use crate::math::{Vec2, Vec3};
 
@@ -182,6 +185,8 @@ pub enum Bsdf {
     Phong(Phong),
     /// The glTF 2.0 metallic-roughness material.
     MetallicRoughness(MetallicRoughness),
+    /// A thin dielectric sheet.
+    ThinGlass(ThinGlass),
 }
 
 macro_rules! dispatch {
@@ -194,6 +199,7 @@ macro_rules! dispatch {
             Bsdf::Plastic($b) => $e,
             Bsdf::Phong($b) => $e,
             Bsdf::MetallicRoughness($b) => $e,
+            Bsdf::ThinGlass($b) => $e,
         }
     };
 }
@@ -241,6 +247,7 @@ impl Bsdf {
             Bsdf::Plastic(_) => Ok(()),
             Bsdf::Phong(p) => p.validate(),
             Bsdf::MetallicRoughness(m) => m.validate(),
+            Bsdf::ThinGlass(g) => g.validate(),
         }
     }
 }
@@ -299,6 +306,12 @@ impl From<Plastic> for Bsdf {
 impl From<MetallicRoughness> for Bsdf {
     fn from(b: MetallicRoughness) -> Self {
         Bsdf::MetallicRoughness(b)
+    }
+}
+
+impl From<ThinGlass> for Bsdf {
+    fn from(b: ThinGlass) -> Self {
+        Bsdf::ThinGlass(b)
     }
 }
 

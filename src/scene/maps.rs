@@ -131,12 +131,15 @@ impl Maps {
             match bsdf {
                 Bsdf::Mirror(m) => m.reflectance = c,
                 Bsdf::Glass(g) => g.reflectance = c,
+                Bsdf::ThinGlass(g) => g.reflectance = c,
                 Bsdf::Phong(p) => p.specular = c,
                 _ => {}
             }
         }
-        if let (Some(t), Bsdf::Glass(g)) = (&self.transmittance, &mut *bsdf) {
-            g.transmittance = unit(t);
+        match (&self.transmittance, &mut *bsdf) {
+            (Some(t), Bsdf::Glass(g)) => g.transmittance = unit(t),
+            (Some(t), Bsdf::ThinGlass(g)) => g.transmittance = unit(t),
+            _ => {}
         }
         if let (Some(t), Bsdf::Conductor(c)) = (&self.alpha, &mut *bsdf) {
             let alpha = t.eval_scalar(uv).max(0.0);

@@ -166,6 +166,7 @@ impl Material {
             Bsdf::Plastic(_) => "plastic",
             Bsdf::Phong(_) => "phong",
             Bsdf::MetallicRoughness(_) => "metallic_roughness",
+            Bsdf::ThinGlass(_) => "thin_glass",
         }
     }
 }

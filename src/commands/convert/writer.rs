@@ -137,6 +137,12 @@ impl Writer<'_> {
                 keys.push(format!("reflectance = {}", rgb(g.reflectance)));
                 keys.push(format!("transmittance = {}", rgb(g.transmittance)));
             }
+            Bsdf::ThinGlass(g) => {
+                keys.push("type = \"thin_glass\"".to_string());
+                keys.push(format!("ior = {}", num(g.ior)));
+                keys.push(format!("reflectance = {}", rgb(g.reflectance)));
+                keys.push(format!("transmittance = {}", rgb(g.transmittance)));
+            }
             Bsdf::Conductor(c) => {
                 keys.push("type = \"conductor\"".to_string());
                 keys.push(format!("alpha = {}", num(c.microfacet.alpha)));

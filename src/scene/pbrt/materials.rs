@@ -2,7 +2,7 @@
 
 use super::tokens::{Param, Values};
 use super::{Loader, Params};
-use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Plastic};
+use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Plastic, ThinGlass};
 use crate::error::Result;
 use crate::math::Vec3;
 use crate::scene::Material;
@@ -153,7 +153,7 @@ impl Loader<'_> {
                     microfacet: Microfacet::new(Distribution::Ggx, alpha),
                 })
             }
-            "dielectric" => {
+            "dielectric" | "thindielectric" => {
                 let ior = match p.get("eta") {
                     Some(Param {
                         values: Values::Strs(v),
@@ -173,10 +173,17 @@ impl Loader<'_> {
                         "a rough dielectric (rendered smooth)".into(),
                     );
                 }
-                Bsdf::Glass(Glass {
-                    ior,
-                    ..Glass::default()
-                })
+                if ty == "dielectric" {
+                    Bsdf::Glass(Glass {
+                        ior,
+                        ..Glass::default()
+                    })
+                } else {
+                    Bsdf::ThinGlass(ThinGlass {
+                        ior,
+                        ..ThinGlass::default()
+                    })
+                }
             }
             other => {
                 self.warn(

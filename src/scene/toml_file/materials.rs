@@ -140,7 +140,7 @@ pub(super) fn keys_of_type(kind: &str) -> Option<&'static [&'static str]> {
     Some(match kind {
         "diffuse" => &["diffuse", "texture"],
         "mirror" => &["reflectance"],
-        "glass" => &["ior", "reflectance", "transmittance"],
+        "glass" | "thin_glass" => &["ior", "reflectance", "transmittance"],
         "conductor" => &["alpha", "eta", "k", "distribution", "masking"],
         "plastic" => &[
             "diffuse",
@@ -252,7 +252,7 @@ pub(super) fn apply_material(
         None => {
             if let Some(k) = keys.iter().find(|k| !["diffuse", "texture"].contains(k)) {
                 return Err(fail(format!(
-                    "material.{k} needs a `type` (one of diffuse, mirror, glass, conductor, plastic, phong, metallic_roughness)"
+                    "material.{k} needs a `type` (one of diffuse, mirror, glass, conductor, plastic, phong, metallic_roughness, thin_glass)"
                 )));
             }
             if over.diffuse.is_some() || texture.is_some() {
@@ -267,7 +267,7 @@ pub(super) fn apply_material(
         Some(kind) => {
             let allowed = keys_of_type(kind).ok_or_else(|| {
                 fail(format!(
-                    "unknown material type `{kind}` (expected diffuse, mirror, glass, conductor, plastic, phong or metallic_roughness)"
+                    "unknown material type `{kind}` (expected diffuse, mirror, glass, conductor, plastic, phong, metallic_roughness or thin_glass)"
                 ))
             })?;
             if let Some(k) = keys.iter().find(|k| !allowed.contains(k)) {
@@ -320,16 +320,24 @@ pub(super) fn apply_material(
                         reflectance: r.constant,
                     })
                 }
-                "glass" => {
+                "glass" | "thin_glass" => {
                     let r = unit(textures, "reflectance", &over.reflectance, 1.0)?;
                     let t = unit(textures, "transmittance", &over.transmittance, 1.0)?;
                     maps.specular = r.texture;
                     maps.transmittance = t.texture;
-                    Bsdf::Glass(Glass {
-                        ior,
-                        reflectance: r.constant,
-                        transmittance: t.constant,
-                    })
+                    if kind == "glass" {
+                        Bsdf::Glass(Glass {
+                            ior,
+                            reflectance: r.constant,
+                            transmittance: t.constant,
+                        })
+                    } else {
+                        Bsdf::ThinGlass(ThinGlass {
+                            ior,
+                            reflectance: r.constant,
+                            transmittance: t.constant,
+                        })
+                    }
                 }
                 "conductor" => {
                     let (a, t) = alpha(textures, 0.1)?;
