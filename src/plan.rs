@@ -291,7 +291,12 @@ impl Plan {
         );
         add(
             "glass",
-            [of_type("glass"), of_type("thin_glass")].concat(),
+            [
+                of_type("glass"),
+                of_type("thin_glass"),
+                of_type("rough_glass"),
+            ]
+            .concat(),
             "glass materials",
             "Fresnel reflection and refraction, eta^2 roulette scale (bsdf/glass.rs)",
         );

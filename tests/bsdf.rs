@@ -25,7 +25,7 @@ use common::{batch_means, sidak_z};
 use embertrace::bsdf::fresnel::{fr_conductor, fr_dielectric};
 use embertrace::bsdf::{
     Bsdf, BsdfSample, Bxdf, Conductor, Diffuse, Distribution, Glass, Lobe, Masking,
-    MetallicRoughness, Microfacet, Mirror, Phong, Plastic, ThinGlass,
+    MetallicRoughness, Microfacet, Mirror, Phong, Plastic, RoughGlass, ThinGlass,
 };
 use embertrace::math::{Vec2, Vec3};
 use embertrace::sampler::Sampler;
@@ -84,6 +84,17 @@ fn zoo() -> Vec<(String, Bsdf)> {
         ("mirror".into(), Mirror::default().into()),
         ("glass".into(), Glass::default().into()),
         ("thin glass".into(), ThinGlass::default().into()),
+        ("rough glass 0.1".into(), RoughGlass::default().into()),
+        (
+            "rough glass 0.5 ior 1.33 tinted".into(),
+            RoughGlass {
+                ior: 1.33,
+                alpha: 0.5,
+                reflectance: Vec3::new(0.9, 0.8, 0.7),
+                transmittance: Vec3::new(0.5, 0.6, 0.7),
+            }
+            .into(),
+        ),
         (
             "glass ior 1.33 tinted".into(),
             Glass {

@@ -243,6 +243,12 @@ f 1/1/1 2/2/2 3/3/3\nf 1/1/1 3/3/3 4/4/4\n";
             ),
         ),
         (
+            "rough and thin glass",
+            format!(
+                "{room}[[mesh]]\nfile = \"quad.obj\"\nmaterial = {{ type = \"rough_glass\", ior = 1.4, alpha = 0.2 }}\n[[mesh]]\nfile = \"quad.obj\"\ntransform = {{ translate = [0.1, 0.2, 0.4] }}\nmaterial = {{ type = \"thin_glass\", ior = 1.5 }}\n"
+            ),
+        ),
+        (
             "metallic roughness",
             format!(
                 "{room}[[mesh]]\nfile = \"quad.obj\"\nmaterial = {{ type = \"metallic_roughness\", base_color = [0.6, 0.4, 0.2], metallic = 0.3, roughness = 0.4, texture = \"tex.png\", metallic_roughness = {{ texture = \"tex.png\" }} }}\n"

@@ -359,7 +359,15 @@ fn materials_read_factors_textures_and_extensions() {
             "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.33}}
         }),
     );
-    for (k, m) in [textured, glowing, glass].into_iter().enumerate() {
+    let frosted = a.push(
+        "materials",
+        json!({
+            "name": "frosted",
+            "pbrMetallicRoughness": {"roughnessFactor": 0.5},
+            "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1.0}}
+        }),
+    );
+    for (k, m) in [textured, glowing, glass, frosted].into_iter().enumerate() {
         let mesh = a.quad_mesh(Some(m));
         a.node(
             json!({"mesh": mesh, "translation": [2.0 * k as f32, 0.0, 0.0]}),
@@ -429,6 +437,10 @@ fn materials_read_factors_textures_and_extensions() {
             assert_eq!(b.ior, 1.33);
             assert_eq!(b.transmittance, Vec3::new(0.9, 0.8, 0.7));
         }
+        other => panic!("{other:?}"),
+    }
+    match by_name("frosted").bsdf {
+        Bsdf::RoughGlass(b) => assert_eq!((b.alpha, b.ior), (0.25, 1.5)),
         other => panic!("{other:?}"),
     }
     assert!(

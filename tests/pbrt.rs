@@ -152,6 +152,8 @@ fn materials_lights_shapes_and_options_are_read() {
          Texture \"checks\" \"spectrum\" \"imagemap\" \"string filename\" \"t.png\"\n\
          MakeNamedMaterial \"gold\" \"string type\" \"conductor\" \"spectrum eta\" \"metal-Au-eta\" \"spectrum k\" \"metal-Au-k\" \"float roughness\" 0.04\n\
          MakeNamedMaterial \"glass\" \"string type\" \"dielectric\" \"float eta\" 1.33\n\
+         MakeNamedMaterial \"frost\" \"string type\" \"dielectric\" \"float roughness\" 0.09\n\
+         AttributeBegin\n NamedMaterial \"frost\"\n Shape \"trianglemesh\" \"point3 P\" [ 0 0 6  1 0 6  0 1 6 ]\nAttributeEnd\n\
          MakeNamedMaterial \"pane\" \"string type\" \"thindielectric\" \"float eta\" 1.6\n\
          AttributeBegin\n NamedMaterial \"pane\"\n Shape \"trianglemesh\" \"point3 P\" [ 0 0 5  1 0 5  0 1 5 ]\nAttributeEnd\n\
          MakeNamedMaterial \"coat\" \"string type\" \"coateddiffuse\" \"rgb reflectance\" [ 0.5 0.4 0.3 ] \"float roughness\" 0.01\n\
@@ -177,7 +179,7 @@ fn materials_lights_shapes_and_options_are_read() {
     );
     let mats: Vec<&str> = scene.materials.iter().map(|m| m.type_name()).collect();
     assert!(
-        ["conductor", "glass", "plastic", "thin_glass"]
+        ["conductor", "glass", "plastic", "thin_glass", "rough_glass"]
             .iter()
             .all(|t| mats.contains(t)),
         "{mats:?}"
@@ -208,8 +210,8 @@ fn materials_lights_shapes_and_options_are_read() {
     assert!(radii.contains(&2.0) && radii.contains(&3.0), "{radii:?}");
     assert_eq!(
         scene.triangle_count(),
-        4,
-        "a bilinear patch is two triangles, and the pane one"
+        5,
+        "a bilinear patch is two triangles, the pane and the frost one each"
     );
     assert_eq!(scene.point_lights[0].intensity, Vec3::new(2.0, 4.0, 6.0));
     let s = &scene.spot_lights[0];

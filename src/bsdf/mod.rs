@@ -6,7 +6,7 @@
 //!   BSDFs ([`Diffuse`], [`Mirror`], [`Conductor`], [`Plastic`], [`Phong`],
 //!   [`MetallicRoughness`]: they see
 //!   `wo.z > 0` and return zero or `None` otherwise). A BSDF that transmits
-//!   ([`Glass`], [`ThinGlass`], see [`Bxdf::has_transmission`]) needs to know which side is
+//!   ([`Glass`], [`RoughGlass`], [`ThinGlass`], see [`Bxdf::has_transmission`]) needs to know which side is
 //!   inside: its +z is the surface's outward normal and `wo.z < 0` means `wo`
 //!   is inside.
 //! - `eval` returns `f(wo, wi)` **without** the cosine factor; estimators
@@ -34,6 +34,7 @@
 //! | [`Conductor`] | GGX or Beckmann microfacet, delta when smooth | `conductor.rs` |
 //! | [`Plastic`] | GGX or delta coat over a Lambertian base | `plastic.rs` |
 //! | [`Phong`] | Lambertian plus a Phong or GGX-Schlick lobe (CSE 168) | `phong.rs` |
+//! | [`RoughGlass`] | GGX microfacet reflection + refraction | `rough_glass.rs` |
 //! | [`ThinGlass`] | delta reflection + straight delta transmission (a sheet) | `thin_glass.rs` |
 //! | [`MetallicRoughness`] | glTF 2.0: Lambertian and GGX-Schlick mixed by metalness | `metallic_roughness.rs` |
 //!
@@ -50,6 +51,7 @@ mod mirror;
 pub mod named_conductors;
 mod phong;
 mod plastic;
+mod rough_glass;
 mod thin_glass;
 
 pub use conductor::Conductor;
@@ -60,6 +62,7 @@ pub use microfacet::{Distribution, Masking, Microfacet};
 pub use mirror::Mirror;
 pub use phong::{Lobe, Phong};
 pub use plastic::{Plastic, PlasticCoats};
+pub use rough_glass::RoughGlass;
 pub use thin_glass::ThinGlass;
 
 use crate::math::{Vec2, Vec3};
@@ -187,6 +190,8 @@ pub enum Bsdf {
     MetallicRoughness(MetallicRoughness),
     /// A thin dielectric sheet.
     ThinGlass(ThinGlass),
+    /// Rough dielectric boundary.
+    RoughGlass(RoughGlass),
 }
 
 macro_rules! dispatch {
@@ -200,6 +205,7 @@ macro_rules! dispatch {
             Bsdf::Phong($b) => $e,
             Bsdf::MetallicRoughness($b) => $e,
             Bsdf::ThinGlass($b) => $e,
+            Bsdf::RoughGlass($b) => $e,
         }
     };
 }
@@ -248,6 +254,7 @@ impl Bsdf {
             Bsdf::Phong(p) => p.validate(),
             Bsdf::MetallicRoughness(m) => m.validate(),
             Bsdf::ThinGlass(g) => g.validate(),
+            Bsdf::RoughGlass(g) => g.validate(),
         }
     }
 }
@@ -306,6 +313,12 @@ impl From<Plastic> for Bsdf {
 impl From<MetallicRoughness> for Bsdf {
     fn from(b: MetallicRoughness) -> Self {
         Bsdf::MetallicRoughness(b)
+    }
+}
+
+impl From<RoughGlass> for Bsdf {
+    fn from(b: RoughGlass) -> Self {
+        Bsdf::RoughGlass(b)
     }
 }
 

@@ -142,6 +142,7 @@ fn reflectance(b: &crate::bsdf::Bsdf) -> Vec3 {
         Bsdf::Mirror(m) => m.reflectance,
         Bsdf::Glass(g) => g.reflectance,
         Bsdf::ThinGlass(g) => g.reflectance,
+        Bsdf::RoughGlass(g) => g.reflectance,
     }
 }
 

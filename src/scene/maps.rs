@@ -14,7 +14,7 @@
 //! |---|---|---|
 //! | `specular` | mirror and glass `reflectance`, phong `specular` | each channel to `[0, 1]` |
 //! | `transmittance` | glass `transmittance` | each channel to `[0, 1]` |
-//! | `alpha` | conductor and plastic `alpha` (a scalar: [`ImageTexture::eval_scalar`]) | `>= 0` (texels are finite and `>= 0` already) |
+//! | `alpha` | conductor, plastic and rough glass `alpha` (a scalar: [`ImageTexture::eval_scalar`]) | `>= 0` (texels are finite and `>= 0` already); rough glass at least `Microfacet::SMOOTH_ALPHA` |
 //! | `emission` | any | none (texels are finite and `>= 0`) |
 //! | `metallic_roughness` | metallic-roughness (glTF's texture: green is the roughness, blue the metalness) | each to `[0, 1]` |
 //!
@@ -132,6 +132,7 @@ impl Maps {
                 Bsdf::Mirror(m) => m.reflectance = c,
                 Bsdf::Glass(g) => g.reflectance = c,
                 Bsdf::ThinGlass(g) => g.reflectance = c,
+                Bsdf::RoughGlass(g) => g.reflectance = c,
                 Bsdf::Phong(p) => p.specular = c,
                 _ => {}
             }
@@ -139,6 +140,7 @@ impl Maps {
         match (&self.transmittance, &mut *bsdf) {
             (Some(t), Bsdf::Glass(g)) => g.transmittance = unit(t),
             (Some(t), Bsdf::ThinGlass(g)) => g.transmittance = unit(t),
+            (Some(t), Bsdf::RoughGlass(g)) => g.transmittance = unit(t),
             _ => {}
         }
         if let (Some(t), Bsdf::Conductor(c)) = (&self.alpha, &mut *bsdf) {
@@ -149,6 +151,9 @@ impl Maps {
             let c = unit(t);
             m.roughness = c.y;
             m.metallic = c.z;
+        }
+        if let (Some(t), Bsdf::RoughGlass(g)) = (&self.alpha, &mut *bsdf) {
+            g.alpha = t.eval_scalar(uv).max(crate::bsdf::Microfacet::SMOOTH_ALPHA);
         }
         if let (Some(t), Some(coats), Bsdf::Plastic(p)) =
             (&self.alpha, &self.plastic_coats, &mut *bsdf)

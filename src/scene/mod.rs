@@ -167,6 +167,7 @@ impl Material {
             Bsdf::Phong(_) => "phong",
             Bsdf::MetallicRoughness(_) => "metallic_roughness",
             Bsdf::ThinGlass(_) => "thin_glass",
+            Bsdf::RoughGlass(_) => "rough_glass",
         }
     }
 }

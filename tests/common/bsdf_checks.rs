@@ -40,7 +40,14 @@ fn gl4(f: &impl Fn(f64, f64) -> f64, x0: f64, x1: f64, y0: f64, y1: f64) -> f64 
 /// Adaptive cubature of `f` over a cell: accept when the 2x2 refinement
 /// agrees with the whole-cell rule to 1e-6 relative (1e-13 absolute, i.e.
 /// 1e-7 samples out of 1e6), else recurse.
-fn integrate(f: &impl Fn(f64, f64) -> f64, x0: f64, x1: f64, y0: f64, y1: f64, depth: u32) -> f64 {
+pub fn integrate(
+    f: &impl Fn(f64, f64) -> f64,
+    x0: f64,
+    x1: f64,
+    y0: f64,
+    y1: f64,
+    depth: u32,
+) -> f64 {
     let coarse = gl4(f, x0, x1, y0, y1);
     let (xm, ym) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
     let quads = [

@@ -137,6 +137,13 @@ impl Writer<'_> {
                 keys.push(format!("reflectance = {}", rgb(g.reflectance)));
                 keys.push(format!("transmittance = {}", rgb(g.transmittance)));
             }
+            Bsdf::RoughGlass(g) => {
+                keys.push("type = \"rough_glass\"".to_string());
+                keys.push(format!("ior = {}", num(g.ior)));
+                keys.push(format!("alpha = {}", num(g.alpha)));
+                keys.push(format!("reflectance = {}", rgb(g.reflectance)));
+                keys.push(format!("transmittance = {}", rgb(g.transmittance)));
+            }
             Bsdf::ThinGlass(g) => {
                 keys.push("type = \"thin_glass\"".to_string());
                 keys.push(format!("ior = {}", num(g.ior)));

@@ -20,10 +20,11 @@
 //!   colour's alpha times the factor's, thresholded per texel, so the edges
 //!   between texels are stochastic); `BLEND` is a mask at 0.5, with a
 //!   warning.
-//! - **Transmission** (`transmissionFactor >= 0.5`): a smooth dielectric
-//!   ([`Glass`]) of the material's `ior` tinted by the base colour, with a
-//!   warning when it is rough or partial: the renderer has no rough
-//!   dielectric yet.
+//! - **Transmission** (`transmissionFactor >= 0.5`): a dielectric of the
+//!   material's `ior` tinted by the base colour, rough ([`RoughGlass`],
+//!   GGX `alpha = roughness^2`) or smooth ([`Glass`]); partial transmission
+//!   is rendered as full, with a warning (the layered mix of the
+//!   specification's BTDF and the diffuse base is not modelled).
 //!
 //! The whole material reads one set of texture coordinates with one
 //! transform: the base colour's (else the first textured slot's). A slot
@@ -33,7 +34,7 @@
 
 use super::Once;
 use super::buffers::image_bytes;
-use crate::bsdf::{Bsdf, Glass, MetallicRoughness, Microfacet};
+use crate::bsdf::{Bsdf, Glass, MetallicRoughness, Microfacet, RoughGlass};
 use crate::error::{Error, Result};
 use crate::math::Vec3;
 use crate::scene::{AlphaMask, Maps, Material};
@@ -287,14 +288,6 @@ impl<'a> Materials<'a> {
                     format!("material `{name}`: a transmissionFactor of {transmission} is rendered as full transmission"),
                 );
             }
-            if roughness * roughness >= Microfacet::SMOOTH_ALPHA {
-                once.warn(
-                    "rough-transmission",
-                    format!(
-                        "material `{name}`: rough transmission is rendered as a smooth dielectric"
-                    ),
-                );
-            }
             if m.transmission()
                 .and_then(|t| t.transmission_texture())
                 .is_some()
@@ -305,12 +298,24 @@ impl<'a> Materials<'a> {
                 );
             }
             let ior = m.ior().unwrap_or(1.5);
+            let ior = if ior >= 1.0 { ior } else { 1.5 };
             maps.transmittance = base_texture.as_ref().map(|(t, _)| t.clone());
-            Bsdf::Glass(Glass {
-                ior: if ior >= 1.0 { ior } else { 1.5 },
-                reflectance: Vec3::ONE,
-                transmittance: base.clamp(Vec3::ZERO, Vec3::ONE),
-            })
+            let transmittance = base.clamp(Vec3::ZERO, Vec3::ONE);
+            let alpha = roughness * roughness;
+            if alpha >= Microfacet::SMOOTH_ALPHA {
+                Bsdf::RoughGlass(RoughGlass {
+                    ior,
+                    alpha,
+                    reflectance: Vec3::ONE,
+                    transmittance,
+                })
+            } else {
+                Bsdf::Glass(Glass {
+                    ior,
+                    reflectance: Vec3::ONE,
+                    transmittance,
+                })
+            }
         } else {
             if transmission > 0.0 {
                 once.warn(

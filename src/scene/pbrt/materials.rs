@@ -2,7 +2,9 @@
 
 use super::tokens::{Param, Values};
 use super::{Loader, Params};
-use crate::bsdf::{Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Plastic, ThinGlass};
+use crate::bsdf::{
+    Bsdf, Conductor, Diffuse, Distribution, Glass, Microfacet, Plastic, RoughGlass, ThinGlass,
+};
 use crate::error::Result;
 use crate::math::Vec3;
 use crate::scene::Material;
@@ -166,14 +168,14 @@ impl Loader<'_> {
                     })?,
                     _ => p.float("eta", 1.5) as f32,
                 };
-                if Self::alpha(p, 0.0) >= Microfacet::SMOOTH_ALPHA {
-                    self.warn(
-                        st,
-                        "rough-dielectric",
-                        "a rough dielectric (rendered smooth)".into(),
-                    );
-                }
-                if ty == "dielectric" {
+                let alpha = Self::alpha(p, 0.0);
+                if ty == "dielectric" && alpha >= Microfacet::SMOOTH_ALPHA {
+                    Bsdf::RoughGlass(RoughGlass {
+                        ior,
+                        alpha,
+                        ..RoughGlass::default()
+                    })
+                } else if ty == "dielectric" {
                     Bsdf::Glass(Glass {
                         ior,
                         ..Glass::default()

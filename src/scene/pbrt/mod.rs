@@ -16,7 +16,7 @@
 //! - `Material`, `MakeNamedMaterial`, `NamedMaterial`: `diffuse`,
 //!   `conductor` (pbrt's named metal spectra through Mitsuba's RGB values
 //!   for the same metals, an RGB `eta`/`k`, or `reflectance`), `dielectric`
-//!   (smooth), `thindielectric` ([`crate::bsdf::ThinGlass`]), `coateddiffuse` (our rough plastic: a diffuse base under a
+//!   (rough or smooth), `thindielectric` ([`crate::bsdf::ThinGlass`]), `coateddiffuse` (our rough plastic: a diffuse base under a
 //!   GGX dielectric coat; pbrt's stochastic layers with `thickness` and
 //!   `albedo` are not reproduced); `Texture "imagemap"` for a reflectance.
 //! - Lights: `AreaLightSource "diffuse"` (`L`, `twosided`, `scale`),

@@ -141,6 +141,7 @@ pub(super) fn keys_of_type(kind: &str) -> Option<&'static [&'static str]> {
         "diffuse" => &["diffuse", "texture"],
         "mirror" => &["reflectance"],
         "glass" | "thin_glass" => &["ior", "reflectance", "transmittance"],
+        "rough_glass" => &["ior", "alpha", "reflectance", "transmittance"],
         "conductor" => &["alpha", "eta", "k", "distribution", "masking"],
         "plastic" => &[
             "diffuse",
@@ -252,7 +253,7 @@ pub(super) fn apply_material(
         None => {
             if let Some(k) = keys.iter().find(|k| !["diffuse", "texture"].contains(k)) {
                 return Err(fail(format!(
-                    "material.{k} needs a `type` (one of diffuse, mirror, glass, conductor, plastic, phong, metallic_roughness, thin_glass)"
+                    "material.{k} needs a `type` (one of diffuse, mirror, glass, conductor, plastic, phong, metallic_roughness, thin_glass, rough_glass)"
                 )));
             }
             if over.diffuse.is_some() || texture.is_some() {
@@ -267,7 +268,7 @@ pub(super) fn apply_material(
         Some(kind) => {
             let allowed = keys_of_type(kind).ok_or_else(|| {
                 fail(format!(
-                    "unknown material type `{kind}` (expected diffuse, mirror, glass, conductor, plastic, phong, metallic_roughness or thin_glass)"
+                    "unknown material type `{kind}` (expected diffuse, mirror, glass, conductor, plastic, phong, metallic_roughness, thin_glass or rough_glass)"
                 ))
             })?;
             if let Some(k) = keys.iter().find(|k| !allowed.contains(k)) {
@@ -318,6 +319,25 @@ pub(super) fn apply_material(
                     maps.specular = r.texture;
                     Bsdf::Mirror(Mirror {
                         reflectance: r.constant,
+                    })
+                }
+                "rough_glass" => {
+                    let r = unit(textures, "reflectance", &over.reflectance, 1.0)?;
+                    let t = unit(textures, "transmittance", &over.transmittance, 1.0)?;
+                    maps.specular = r.texture;
+                    maps.transmittance = t.texture;
+                    let (a, at) = alpha(textures, 0.1)?;
+                    let a = if at.is_some() {
+                        a.max(Microfacet::SMOOTH_ALPHA)
+                    } else {
+                        a
+                    };
+                    maps.alpha = at;
+                    Bsdf::RoughGlass(RoughGlass {
+                        ior,
+                        alpha: a,
+                        reflectance: r.constant,
+                        transmittance: t.constant,
                     })
                 }
                 "glass" | "thin_glass" => {

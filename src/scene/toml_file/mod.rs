@@ -60,7 +60,7 @@ use super::{
 };
 use crate::bsdf::{
     Bsdf, Conductor, Diffuse, Distribution, Glass, Lobe, Masking, MetallicRoughness, Microfacet,
-    Mirror, Phong, Plastic, PlasticCoats, ThinGlass,
+    Mirror, Phong, Plastic, PlasticCoats, RoughGlass, ThinGlass,
 };
 use crate::camera::ThinLens;
 use crate::error::{Error, Result};
