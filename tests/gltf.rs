@@ -629,23 +629,7 @@ fn a_textured_asset_renders_and_converts_to_the_same_bits() {
     let scene = Scene::load(&path).unwrap();
     assert!(scene.materials[0].texture.is_some());
     assert!(scene.materials[0].maps.normal.is_some());
-    let out = dir.path().join("asset.exr");
-    let o = common::run(
-        dir.path(),
-        &[
-            "render",
-            path.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--spp",
-            "16",
-            "-r",
-            "32",
-            "32",
-        ],
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let (_, _, rgb) = embertrace::image::read_exr(&out).unwrap();
+    let rgb = common::render_exr(dir.path(), &path, "asset.exr", 16, [32, 32]);
     // the image is not mirrored or flipped: glTF's texture origin is the
     // image's top left, so the corner at the quad's first vertex (near
     // left in the view) is red, near right blue, far left green
@@ -683,22 +667,7 @@ fn a_textured_asset_renders_and_converts_to_the_same_bits() {
         &["convert", path.to_str().unwrap(), toml.to_str().unwrap()],
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = common::run(
-        dir.path(),
-        &[
-            "render",
-            toml.to_str().unwrap(),
-            "-o",
-            dir.path().join("toml.exr").to_str().unwrap(),
-            "--spp",
-            "16",
-            "-r",
-            "32",
-            "32",
-        ],
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let (_, _, again) = embertrace::image::read_exr(&dir.path().join("toml.exr")).unwrap();
+    let again = common::render_exr(dir.path(), &toml, "toml.exr", 16, [32, 32]);
     assert_eq!(rgb, again);
 }
 

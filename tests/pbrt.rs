@@ -29,24 +29,8 @@ fn emitter(x: f32, rgb: &str) -> String {
 
 /// The mean colour of the left and right halves of a 16 x 8 render.
 fn halves(path: &Path) -> (Vec3, Vec3) {
-    let dir = path.parent().unwrap();
-    let out = dir.join("h.exr");
-    let o = common::run(
-        dir,
-        &[
-            "render",
-            path.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "--spp",
-            "4",
-            "-r",
-            "16",
-            "8",
-        ],
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let (w, h, rgb) = embertrace::image::read_exr(&out).unwrap();
+    let rgb = common::render_exr(path.parent().unwrap(), path, "h.exr", 4, [16, 8]);
+    let (w, h) = (16u32, 8u32);
     let (mut l, mut r) = (Vec3::ZERO, Vec3::ZERO);
     for y in 0..h as usize {
         for x in 0..w as usize {
@@ -319,25 +303,7 @@ fn the_pbrt_box_converts_to_the_same_bits() {
         &["convert", src.to_str().unwrap(), toml.to_str().unwrap()],
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let render = |scene: &Path, out: &str| {
-        let out = dir.path().join(out);
-        let o = common::run(
-            dir.path(),
-            &[
-                "render",
-                scene.to_str().unwrap(),
-                "-o",
-                out.to_str().unwrap(),
-                "--spp",
-                "4",
-                "-r",
-                "16",
-                "16",
-            ],
-        );
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        embertrace::image::read_exr(&out).unwrap().2
-    };
+    let render = |scene: &Path, out: &str| common::render_exr(dir.path(), scene, out, 4, [16, 16]);
     assert_eq!(render(&src, "a.exr"), render(&toml, "b.exr"));
 }
 

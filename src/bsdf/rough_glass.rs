@@ -177,19 +177,9 @@ impl Bxdf for RoughGlass {
         let wi = if reflect {
             super::fresnel::reflect(wo, wm)
         } else {
-            // refract through wm: the side of wo decides the relative index
-            let (n, eta) = if wo.dot(wm) > 0.0 {
-                (wm, self.ior)
-            } else {
-                (-wm, 1.0 / self.ior)
-            };
-            let cos_i = wo.dot(n);
-            let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
-            if sin2_t >= 1.0 {
-                return None;
-            }
-            let cos_t = (1.0 - sin2_t).sqrt();
-            -wo / eta + (cos_i / eta - cos_t) * n
+            // refract through wm (the side of wo decides the relative
+            // index); None under total internal reflection
+            super::fresnel::refract(wo, wm, self.ior)?.wt
         };
         if (wi.z * wo.z > 0.0) != reflect {
             return None;

@@ -404,3 +404,26 @@ pub fn entries(dir: &Path) -> Vec<std::path::PathBuf> {
     v.sort();
     v
 }
+
+/// Render `scene` through the binary at `spp` samples and `w` x `h` pixels
+/// to `out` (an EXR in `dir`); its pixels, RGB, top row first.
+pub fn render_exr(dir: &Path, scene: &Path, out: &str, spp: u32, [w, h]: [u32; 2]) -> Vec<f32> {
+    let out = dir.join(out);
+    let (spp, w, h) = (spp.to_string(), w.to_string(), h.to_string());
+    let o = run(
+        dir,
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--spp",
+            &spp,
+            "-r",
+            &w,
+            &h,
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    embertrace::image::read_exr(&out).unwrap().2
+}
