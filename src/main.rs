@@ -1,7 +1,7 @@
 //! The `embertrace` command line: parse the arguments and hand them to the
 //! subcommand's module in `embertrace::commands`.
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
 use embertrace::commands::{bench, convert, diff, merge, parity, plan, render, study};
 use embertrace::error::Error;
 use std::process::ExitCode;
@@ -20,7 +20,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render a scene (.toml, .obj, .ply, Mitsuba 3 .xml, CS184 .dae or CSE .test) to an image.
+    /// Render a scene (.toml, .obj, .ply, glTF .gltf/.glb, pbrt-v4 .pbrt, Mitsuba 3 .xml, CS184 .dae or CSE .test) to an image.
     Render(Box<render::RenderArgs>),
     /// Measure build time, memory and ray throughput of each backend.
     Bench(bench::BenchArgs),
@@ -40,6 +40,17 @@ enum Command {
     /// Combine accumulation files (shards, crops, checkpoints) into the
     /// final image, bit for bit the one-process render.
     Merge(merge::MergeArgs),
+    /// Print a completion script for a shell (bash, zsh, fish, elvish,
+    /// powershell) to standard output, e.g. `embertrace completions bash >
+    /// ~/.local/share/bash-completion/completions/embertrace`.
+    Completions {
+        /// The shell.
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
+    /// Print the manual page (roff) to standard output, e.g. `embertrace
+    /// man > embertrace.1 && man ./embertrace.1`.
+    Man,
 }
 
 /// Words that start the subcommand form; anything else is the classic form.
@@ -52,12 +63,27 @@ const SUBCOMMANDS: &[&str] = &[
     "plan",
     "convert",
     "merge",
+    "completions",
+    "man",
     "help",
     "-h",
     "--help",
     "-V",
     "--version",
 ];
+
+/// Write `bytes` to standard output; a reader that closed the pipe early
+/// (`| head`) is not an error.
+fn print_bytes(bytes: &[u8]) -> Result<(), Error> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(bytes).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(Error::io(std::path::Path::new("<stdout>"), e))
+        }
+        _ => Ok(()),
+    }
+}
 
 fn main() -> ExitCode {
     // arguments as the OS gives them: a path need not be UTF-8
@@ -78,6 +104,19 @@ fn main() -> ExitCode {
         Command::Plan(args) => plan::run(args),
         Command::Merge(args) => merge::run(args),
         Command::Convert(args) => convert::run(args),
+        Command::Completions { shell } => {
+            // into memory first: the generator panics on a failed write
+            let mut text = Vec::new();
+            clap_complete::generate(shell, &mut Cli::command(), "embertrace", &mut text);
+            print_bytes(&text)
+        }
+        Command::Man => {
+            let mut text = Vec::new();
+            clap_mangen::Man::new(Cli::command())
+                .render(&mut text)
+                .map_err(|e| Error::io(std::path::Path::new("<man page>"), e))
+                .and_then(|()| print_bytes(&text))
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -904,3 +904,43 @@ fn scenes_that_lose_or_lack_their_light_say_so() {
     );
     assert_eq!(warnings("lit.toml"), Vec::<String>::new());
 }
+
+/// `completions SHELL` prints a script that completes the subcommands and
+/// their flags; `man` prints a roff page naming them; an unknown shell is a
+/// one-line error.
+#[test]
+fn completions_and_the_man_page_name_every_subcommand() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = |args: &[&str]| {
+        let o = run(dir.path(), args);
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        String::from_utf8(o.stdout).unwrap()
+    };
+    let bash = text(&["completions", "bash"]);
+    assert!(bash.contains("_embertrace()") && bash.contains("complete -F _embertrace"));
+    let fish = text(&["completions", "fish"]);
+    let zsh = text(&["completions", "zsh"]);
+    assert!(zsh.starts_with("#compdef embertrace"));
+    let man = text(&["man"]);
+    assert!(man.contains(".TH embertrace 1"));
+    for sub in [
+        "render", "plan", "convert", "merge", "bench", "parity", "diff", "study",
+    ] {
+        assert!(bash.contains(sub), "bash lacks {sub}");
+        assert!(
+            fish.contains(&format!("-a \"{sub}\"")) || fish.contains(&format!("-f -a \"{sub}\"")),
+            "fish lacks {sub}"
+        );
+        assert!(man.contains(sub), "man page lacks {sub}");
+    }
+    // render's flags complete too
+    assert!(bash.contains("--time-limit") && fish.contains("time-limit"));
+    let o = run(dir.path(), &["completions", "tcsh"]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+}
