@@ -1,4 +1,5 @@
-//! Build script: finds Embree 3 and generates its Rust bindings with bindgen.
+//! Build script: records the build's identity (see [`identity`]), and finds
+//! Embree 3 and generates its Rust bindings with bindgen.
 //!
 //! It does something only when the `embree` feature is on and `embree4` is
 //! off; with `embree4` the `embree4-sys` crate supplies bindings and linking,
@@ -22,6 +23,7 @@ use std::env;
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
+    identity::run();
     let embree = env::var_os("CARGO_FEATURE_EMBREE").is_some();
     let embree4 = env::var_os("CARGO_FEATURE_EMBREE4").is_some();
     // Without `embree` there is no Embree; with `embree4`, embree4-sys
@@ -352,6 +354,76 @@ mod embree3 {
             .join("embree_bindings.rs");
         if let Err(e) = bindings.write_to_file(&out) {
             fail(&format!("cannot write {}: {e}", out.display()));
+        }
+    }
+}
+
+/// The build's identity, for `--version` and the farm's provenance
+/// (`src/build_info.rs`): `EMBERTRACE_SOURCE_DIGEST`, a 64-bit FNV-1a hash
+/// of every file under `src/` (by path, sorted), `build.rs` and
+/// `Cargo.lock`, so that two builds from different code (anything that
+/// could change a pixel) differ; and `EMBERTRACE_COMMIT`, the commit the
+/// tree was at (`-dirty` when it had changes), or `unknown` outside a git
+/// checkout.
+mod identity {
+    use std::path::{Path, PathBuf};
+    use std::process::Command;
+
+    fn files(dir: &Path, out: &mut Vec<PathBuf>) {
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            return;
+        };
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                files(&p, out);
+            } else {
+                out.push(p);
+            }
+        }
+    }
+
+    fn git(args: &[&str]) -> Option<String> {
+        let o = Command::new("git").args(args).output().ok()?;
+        o.status
+            .success()
+            .then(|| String::from_utf8_lossy(&o.stdout).trim().to_string())
+    }
+
+    pub fn run() {
+        let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets it"));
+        let mut paths = vec![root.join("build.rs"), root.join("Cargo.lock")];
+        files(&root.join("src"), &mut paths);
+        paths.sort();
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        let mut eat = |bytes: &[u8]| {
+            for &b in bytes {
+                h = (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3);
+            }
+        };
+        for p in &paths {
+            let rel = p.strip_prefix(&root).unwrap_or(p);
+            eat(rel.to_string_lossy().as_bytes());
+            eat(&[0]);
+            eat(&std::fs::read(p).unwrap_or_default());
+            eat(&[0]);
+        }
+        println!("cargo:rustc-env=EMBERTRACE_SOURCE_DIGEST={h:016x}");
+        let commit = match git(&["rev-parse", "--short=12", "HEAD"]) {
+            Some(c) => {
+                let dirty = git(&["status", "--porcelain", "--untracked-files=no"])
+                    .is_some_and(|s| !s.is_empty());
+                if dirty { format!("{c}-dirty") } else { c }
+            }
+            None => "unknown".to_string(),
+        };
+        println!("cargo:rustc-env=EMBERTRACE_COMMIT={commit}");
+        println!("cargo:rerun-if-changed=src");
+        println!("cargo:rerun-if-changed=Cargo.lock");
+        for f in [".git/HEAD", ".git/index"] {
+            if root.join(f).exists() {
+                println!("cargo:rerun-if-changed={f}");
+            }
         }
     }
 }

@@ -56,6 +56,7 @@ pub use error::{Error, Result};
 pub use renderer::{Rendered, Renderer};
 pub use scene::Scene;
 pub mod bsdf;
+pub mod build_info;
 pub mod camera;
 pub mod commands;
 pub mod farm;

@@ -9,7 +9,7 @@ use std::process::ExitCode;
 #[derive(Parser)]
 #[command(
     name = "embertrace",
-    version,
+    version = embertrace::build_info::LONG_VERSION,
     about = "A physically based path tracer (ray queries by Embree, a pure-Rust BVH or brute force).",
     after_help = "The classic form `embertrace -t 8 -s 64 -l 16 -m 5 -r 480 360 -f out.png SCENE` means `embertrace render ...`."
 )]

@@ -484,3 +484,72 @@ fn shards_tile_the_samples() {
     assert!(farm::crop_window([0, 0, 9, 4], [8, 8]).is_err());
     assert!(farm::crop_window([0, 0, 8, 8], [8, 8]).is_ok());
 }
+
+/// Parts record the source digest of the build that rendered them
+/// (`embertrace --version` prints it): a part from a build of other source
+/// does not merge or resume, with both builds named, unless
+/// `--allow-mixed-builds` says the pixels agree.
+#[test]
+fn parts_from_another_build_are_refused_unless_allowed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    render(d, "s1.exr", &["--shard", "1/2"]);
+    render(d, "s2.exr", &["--shard", "2/2"]);
+    let (film, mut prov) = farm::read_accumulation(&d.join("s2.exr")).unwrap();
+    assert_eq!(prov.build, embertrace::build_info::SOURCE_DIGEST);
+    let version = run(d, &["--version"]);
+    let version = String::from_utf8_lossy(&version.stdout).into_owned();
+    assert!(version.contains(&prov.build), "{version}");
+    prov.build = "0123456789abcdef".into();
+    farm::write_accumulation(&d.join("other.exr"), &film, &prov).unwrap();
+    refused(
+        d,
+        &["s1.exr", "other.exr"],
+        &[
+            "other.exr",
+            "0123456789abcdef",
+            &prov.version,
+            "--allow-mixed-builds",
+        ],
+    );
+    ok(
+        d,
+        &[
+            "merge",
+            "s1.exr",
+            "other.exr",
+            "-o",
+            "mixed.exr",
+            "--allow-mixed-builds",
+        ],
+    );
+    let mixed = pixels(&d.join("mixed.exr"));
+    assert_eq!(mixed, merged(d, &["s1.exr", "s2.exr"], "same.exr"));
+    // a checkpoint from the other build does not resume either
+    std::fs::copy(d.join("other.exr"), d.join("resume.exr")).unwrap();
+    let args = [
+        "render",
+        SCENE,
+        "-q",
+        "-r",
+        RES[0],
+        RES[1],
+        "-s",
+        "10",
+        "-m",
+        "6",
+        "--shard",
+        "2/2",
+        "-o",
+        "r.exr",
+        "--resume",
+        "resume.exr",
+    ];
+    let out = run(d, &args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("0123456789abcdef") && err.contains("--allow-mixed-builds"),
+        "{err}"
+    );
+}

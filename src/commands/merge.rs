@@ -38,6 +38,11 @@ pub struct MergeArgs {
     /// Write a JSON report of the merge: the parts, time and peak memory.
     #[arg(long, value_name = "FILE")]
     report: Option<PathBuf>,
+    /// Merge parts rendered by builds of different source (their
+    /// accumulation files record it): only when the pixels are known to
+    /// agree.
+    #[arg(long)]
+    allow_mixed_builds: bool,
 }
 
 /// Run `embertrace merge`.
@@ -66,7 +71,8 @@ pub fn run(args: MergeArgs) -> Result<()> {
     if let Some(r) = &args.report {
         crate::commands::render::report::check_report_path(r)?;
     }
-    let (merged, prov, mut report) = farm::merge(&args.parts, args.accumulation)?;
+    let (merged, prov, mut report) =
+        farm::merge(&args.parts, args.accumulation, args.allow_mixed_builds)?;
     if args.accumulation {
         farm::write_accumulation(&args.output, &merged, &prov)?;
     } else {

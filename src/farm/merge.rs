@@ -65,7 +65,11 @@ fn volume(b: &[[u64; 2]; 3]) -> u128 {
 /// render (every pixel, samples `0..spp`).
 /// Returns the merged film, its provenance and a report; fails with a
 /// one-line message naming the part at fault.
-pub fn merge(parts: &[PathBuf], partial: bool) -> Result<(Film, Provenance, MergeReport)> {
+pub fn merge(
+    parts: &[PathBuf],
+    partial: bool,
+    allow_mixed_builds: bool,
+) -> Result<(Film, Provenance, MergeReport)> {
     let start = std::time::Instant::now();
     if parts.is_empty() {
         return Err(Error::Settings("merge: no parts given".into()));
@@ -107,8 +111,14 @@ pub fn merge(parts: &[PathBuf], partial: bool) -> Result<(Film, Provenance, Merg
                 first.display()
             ))
         };
-        if p.version != p0.version {
-            return Err(at_fault(format!("rendered by embertrace {}", p.version)));
+        if !allow_mixed_builds && (&p.version, &p.build) != (&p0.version, &p0.build) {
+            return Err(at_fault(format!(
+                "rendered by embertrace {} (source {}), not {} (source {}); pass --allow-mixed-builds if their pixels agree",
+                p.version,
+                super::build_name(&p.build),
+                p0.version,
+                super::build_name(&p0.build)
+            )));
         }
         if p.scene_hash != p0.scene_hash {
             return Err(at_fault(format!(

@@ -274,6 +274,10 @@ const ATTR: &str = "embertrace.";
 pub struct Provenance {
     /// The embertrace version that rendered it.
     pub version: String,
+    /// The build's source digest ([`crate::build_info::SOURCE_DIGEST`]):
+    /// parts from builds whose code differs do not merge unless asked to.
+    /// Empty in files written before builds recorded it.
+    pub build: String,
     /// The scene file's name (for messages only; not compared).
     pub scene: String,
     /// [`scene_hash`] of the scene.
@@ -324,6 +328,7 @@ impl Provenance {
         let mut m = vec![
             (format!("{ATTR}kind"), "accumulation".to_string()),
             (format!("{ATTR}version"), self.version.clone()),
+            (format!("{ATTR}build"), self.build.clone()),
             (format!("{ATTR}scene"), self.scene.clone()),
             (
                 format!("{ATTR}scene_hash"),
@@ -396,6 +401,7 @@ impl Provenance {
             .collect();
         let p = Provenance {
             version: get("version").unwrap_or("").to_string(),
+            build: get("build").unwrap_or("").to_string(),
             scene: get("scene").unwrap_or("").to_string(),
             scene_hash,
             settings,
@@ -597,6 +603,15 @@ fn window_array(w: TileBounds) -> [u32; 4] {
     [w.x0, w.y0, w.x0 + w.width, w.y0 + w.height]
 }
 
+/// A build's source digest as messages name it.
+pub fn build_name(digest: &str) -> &str {
+    if digest.is_empty() {
+        "not recorded"
+    } else {
+        digest
+    }
+}
+
 /// Check that `prov` (from a checkpoint) was made by this scene and these
 /// settings, except `spp`, which may differ when `same_points` says the
 /// sampler's points do not depend on it.
@@ -605,6 +620,7 @@ pub fn check_resume(
     prov: &Provenance,
     now: &Provenance,
     same_points: bool,
+    allow_mixed_builds: bool,
 ) -> Result<()> {
     let fail = |what: String| {
         Err(Error::Settings(format!(
@@ -612,8 +628,14 @@ pub fn check_resume(
             path.display()
         )))
     };
-    if prov.version != now.version {
-        return fail(format!("written by embertrace {}", prov.version));
+    if !allow_mixed_builds && (&prov.version, &prov.build) != (&now.version, &now.build) {
+        return fail(format!(
+            "written by embertrace {} (source {}), this is {} (source {}); pass --allow-mixed-builds if their pixels agree",
+            prov.version,
+            build_name(&prov.build),
+            now.version,
+            build_name(&now.build)
+        ));
     }
     if prov.scene_hash != now.scene_hash {
         return fail("made from a different scene (or the scene changed)".into());

@@ -71,6 +71,10 @@ pub struct RenderArgs {
     /// as in the course, else the distance to the point looked at].
     #[arg(short = 'd', long = "focal-distance", allow_negative_numbers = true)]
     focal_distance: Option<f32>,
+    /// With --resume: continue a checkpoint written by a build of different
+    /// source (only when the pixels are known to agree).
+    #[arg(long)]
+    allow_mixed_builds: bool,
     /// The camera to render through, by name, in a glTF file with several
     /// [the file's first perspective camera].
     #[arg(long = "camera", value_name = "NAME")]
@@ -461,6 +465,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         bar.finish_and_clear();
         let provenance = farm::Provenance {
             version: env!("CARGO_PKG_VERSION").to_string(),
+            build: crate::build_info::SOURCE_DIGEST.to_string(),
             scene: args
                 .scene
                 .file_name()
@@ -748,6 +753,7 @@ fn render_farm(
                 &saved,
                 provenance,
                 settings.sampler.same_points(spp_saved, settings.spp),
+                args.allow_mixed_builds,
             )?;
             say(&format!(
                 "resuming {}: samples {}..{} of {}..{}",
