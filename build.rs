@@ -411,8 +411,13 @@ mod identity {
         println!("cargo:rustc-env=EMBERTRACE_SOURCE_DIGEST={h:016x}");
         let commit = match git(&["rev-parse", "--short=12", "HEAD"]) {
             Some(c) => {
-                let dirty = git(&["status", "--porcelain", "--untracked-files=no"])
-                    .is_some_and(|s| !s.is_empty());
+                let dirty = git(&[
+                    "--no-optional-locks",
+                    "status",
+                    "--porcelain",
+                    "--untracked-files=no",
+                ])
+                .is_some_and(|s| !s.is_empty());
                 if dirty { format!("{c}-dirty") } else { c }
             }
             None => "unknown".to_string(),
