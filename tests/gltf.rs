@@ -508,12 +508,15 @@ fn unsupported_extensions_warn_once_and_required_ones_are_refused() {
     let mut a = Asset::new();
     let mesh = a.quad_mesh(None);
     a.node(json!({"mesh": mesh}), true);
+    let colours = a.floats(&[1.0; 12], "VEC3");
+    a.json["meshes"][mesh]["primitives"][0]["attributes"]["COLOR_0"] = json!(colours);
     a.json["extensionsUsed"] = json!(["KHR_materials_clearcoat", "KHR_materials_sheen"]);
     let path = a.write(dir.path(), "e.gltf");
     let scene = Scene::load(&path).unwrap();
     let said = |name: &str| scene.warnings.iter().filter(|w| w.contains(name)).count();
     assert_eq!(said("KHR_materials_clearcoat"), 1, "{:?}", scene.warnings);
     assert_eq!(said("KHR_materials_sheen"), 1);
+    assert_eq!(said("COLOR_0"), 1, "{:?}", scene.warnings);
 
     let mut a = Asset::new();
     let mesh = a.quad_mesh(None);

@@ -249,6 +249,7 @@ fn unread_statements_warn_once_with_their_line_and_bad_ones_are_errors() {
     let text = format!(
         "{EXPORTED_CAMERA}PixelFilter \"gaussian\"\nWorldBegin\n\
          Shape \"disk\" \"float radius\" 1\nShape \"disk\"\nMaterial \"hair\"\n\
+         Shape \"sphere\" \"float radius\" 1 \"float mystery\" 2\n\
          LightSource \"point\" \"blackbody I\" [ 3000 ]\n"
     );
     let scene = Scene::load(&write(dir.path(), "w.pbrt", &text)).unwrap();
@@ -263,6 +264,16 @@ fn unread_statements_warn_once_with_their_line_and_bad_ones_are_errors() {
     assert_eq!(said("PixelFilter"), 1);
     assert_eq!(said("hair"), 1);
     assert_eq!(said("blackbody"), 1);
+    // a parameter nothing reads is named with its statement
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("w.pbrt:9") && w.contains("`mystery` of Shape \"sphere\"")),
+        "{:?}",
+        scene.warnings
+    );
+    assert_eq!(said("radius"), 0, "read parameters are not named");
     for (text, needle) in [
         (
             "WorldBegin\nShape \"trianglemesh\" \"point3 P\" [ 0 0 0 1 0 0 0 1 0 ] \"integer indices\" [ 0 1 5 ]\n",

@@ -26,7 +26,9 @@
 //!   light) is lit by a white environment, with a note, as a bare mesh is.
 //!
 //! What is not: animation, skins and morph targets (the rest pose is
-//! rendered), orthographic cameras, `range` on lights, and extensions
+//! rendered), orthographic cameras, `range` on lights, `COLOR_0` vertex
+//! colours (a warning), `TANGENT` (a note: tangents come from the texture
+//! coordinates), and extensions
 //! other than those above: each gets one warning naming it. An extension
 //! the file lists as required and the renderer cannot read (Draco, meshopt,
 //! Basis textures) is an error naming it.
@@ -484,6 +486,19 @@ fn read_mesh(
     let mut uvs: Vec<[Vec2; 3]> = Vec::new();
     let mut normals: Vec<[Vec3; 3]> = Vec::new();
     for prim in mesh.primitives() {
+        if prim.get(&gltf::Semantic::Colors(0)).is_some() {
+            once.warn(
+                "colors",
+                format!("mesh `{name}`: COLOR_0 vertex colours ignored"),
+            );
+        }
+        if prim.get(&gltf::Semantic::Tangents).is_some() {
+            once.note(
+                "tangents",
+                "TANGENT ignored: normal maps take their tangents from the texture coordinates"
+                    .to_string(),
+            );
+        }
         let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
         let Some(positions) = reader.read_positions() else {
             once.warn(

@@ -25,6 +25,7 @@ impl Loader<'_> {
                     crate::error::one_line(class)
                 ),
             );
+            p.read_all();
             return Ok(());
         }
         let file = p
@@ -196,13 +197,13 @@ impl Loader<'_> {
                         crate::error::one_line(other)
                     ),
                 );
+                p.read_all();
                 Bsdf::Diffuse(Diffuse {
                     albedo: Vec3::splat(0.5),
                 })
             }
         };
-        if let Some(n) = p.string("normalmap") {
-            let _ = n;
+        if p.get("normalmap").is_some() {
             self.warn(st, "normalmap", "a material's `normalmap`".into());
         }
         m.bsdf

@@ -131,14 +131,36 @@ pub(super) fn load(path: &Path, _options: &LoadOptions) -> Result<Scene> {
     l.finish()
 }
 
-/// Parameter lookups with the statement's place for errors.
+/// Parameter lookups with the statement's place for errors. Every lookup
+/// marks the parameter read, so that [`Loader::statement`] can warn about
+/// the ones nothing read.
 struct Params<'s> {
     st: &'s Statement,
+    read: std::cell::RefCell<HashSet<&'s str>>,
 }
 
 impl<'s> Params<'s> {
     fn get(&self, name: &str) -> Option<&'s Param> {
-        self.st.params.iter().find(|p| p.name == name)
+        let p = self.st.params.iter().find(|p| p.name == name)?;
+        self.read.borrow_mut().insert(&p.name);
+        Some(p)
+    }
+
+    /// Mark every parameter read: the statement as a whole was warned
+    /// about (an unsupported shape, material or light).
+    fn read_all(&self) {
+        let mut r = self.read.borrow_mut();
+        r.extend(self.st.params.iter().map(|p| p.name.as_str()));
+    }
+
+    /// The parameters nothing looked up.
+    fn unread(&self) -> Vec<&'s Param> {
+        let r = self.read.borrow();
+        self.st
+            .params
+            .iter()
+            .filter(|p| !r.contains(p.name.as_str()))
+            .collect()
     }
 
     fn fail(&self, m: String) -> Error {
@@ -224,8 +246,33 @@ impl<'a> Loader<'a> {
         Ok(())
     }
 
+    /// Run statement `st`, then warn (once per statement kind and
+    /// parameter) about each parameter it did not read.
     fn statement(&mut self, st: &Statement, depth: usize) -> Result<()> {
-        let p = Params { st };
+        let p = Params {
+            st,
+            read: Default::default(),
+        };
+        self.statement_body(&p, depth)?;
+        for param in p.unread() {
+            let kind = match st.strings.first() {
+                Some(k) => format!("{} \"{}\"", st.keyword, crate::error::one_line(k)),
+                None => st.keyword.clone(),
+            };
+            self.warn(
+                st,
+                &format!("param-{kind}-{}", param.name),
+                format!(
+                    "parameter `{}` of {kind}",
+                    crate::error::one_line(&param.name)
+                ),
+            );
+        }
+        Ok(())
+    }
+
+    fn statement_body(&mut self, p: &Params, depth: usize) -> Result<()> {
+        let st = p.st;
         let n = &st.numbers;
         let concat = |l: &mut Self, m: DAffine3| l.attrs.ctm *= m;
         match st.keyword.as_str() {
@@ -318,12 +365,14 @@ impl<'a> Loader<'a> {
                 self.files.push(file.clone());
                 self.run_file(&file, depth + 1)?;
             }
-            "Camera" => self.camera_statement(&p)?,
+            "Camera" => self.camera_statement(p)?,
             "Film" => {
                 let w = p.float("xresolution", 1280.0);
                 let h = p.float("yresolution", 720.0);
                 crate::limits::check_resolution(w as u64, h as u64).map_err(|m| p.fail(m))?;
                 self.resolution = [w as u32, h as u32];
+                // the output is the command line's -o
+                let _ = p.get("filename");
                 if p.get("cropwindow").is_some() {
                     self.warn(st, "cropwindow", "Film cropwindow".into());
                 }
@@ -355,7 +404,7 @@ impl<'a> Loader<'a> {
                 }
             }
             "Material" => {
-                let m = self.material(&p, &st.strings[0], "material")?;
+                let m = self.material(p, &st.strings[0], "material")?;
                 self.materials.push(m);
                 self.attrs.material = self.materials.len() - 1;
             }
@@ -363,7 +412,7 @@ impl<'a> Loader<'a> {
                 let ty = p
                     .string("type")
                     .ok_or_else(|| p.fail("MakeNamedMaterial needs a \"string type\"".into()))?;
-                let m = self.material(&p, ty, &st.strings[0])?;
+                let m = self.material(p, ty, &st.strings[0])?;
                 self.materials.push(m);
                 self.named_materials
                     .insert(st.strings[0].clone(), self.materials.len() - 1);
@@ -377,7 +426,7 @@ impl<'a> Loader<'a> {
                     )));
                 }
             },
-            "Texture" => self.texture(&p)?,
+            "Texture" => self.texture(p)?,
             "AreaLightSource" => {
                 if st.strings[0] != "diffuse" {
                     self.warn(
@@ -388,6 +437,7 @@ impl<'a> Loader<'a> {
                             crate::error::one_line(&st.strings[0])
                         ),
                     );
+                    p.read_all();
                     return Ok(());
                 }
                 let (l, bb) = p.colour("L")?.unwrap_or((Vec3::ONE, false));
@@ -404,8 +454,8 @@ impl<'a> Loader<'a> {
                 let l = l * p.float("scale", 1.0) as f32;
                 self.attrs.area = Some((l, p.bool("twosided", false)));
             }
-            "LightSource" => self.light(&p)?,
-            "Shape" => self.shape(&p)?,
+            "LightSource" => self.light(p)?,
+            "Shape" => self.shape(p)?,
             "ObjectBegin" => {
                 self.stack.push(self.attrs.clone());
                 self.object = Some((
@@ -449,6 +499,7 @@ impl<'a> Loader<'a> {
             other => {
                 let kind = other.to_string();
                 self.warn(st, &kind, format!("`{other}`"));
+                p.read_all();
             }
         }
         Ok(())
@@ -464,13 +515,13 @@ impl<'a> Loader<'a> {
             )));
         }
         let fov = p.float("fov", 90.0);
+        let focus = p.float("focaldistance", 1e6);
         if !(fov > 0.0 && fov < 180.0) {
             return Err(p.fail(format!("Camera fov {fov} not in (0, 180)")));
         }
         let lens = match p.nums("lensradius") {
             Some(r) if r.first().is_some_and(|&r| r > 0.0) => {
-                ThinLens::new(r[0] as f32, p.float("focaldistance", 1e6) as f32)
-                    .map_err(|e| p.fail(e.to_string()))?
+                ThinLens::new(r[0] as f32, focus as f32).map_err(|e| p.fail(e.to_string()))?
             }
             _ => ThinLens::PINHOLE,
         };
@@ -558,6 +609,7 @@ impl<'a> Loader<'a> {
                     &format!("light-{other}"),
                     format!("LightSource \"{}\"", crate::error::one_line(other)),
                 );
+                p.read_all();
             }
         }
         Ok(())
@@ -629,6 +681,7 @@ impl<'a> Loader<'a> {
                 }
                 if self.object.is_some() {
                     self.warn(st, "object-sphere", "a sphere inside ObjectBegin".into());
+                    p.read_all();
                     return Ok(());
                 }
                 let radius = (r * a) as f32;
@@ -666,6 +719,7 @@ impl<'a> Loader<'a> {
                     &format!("shape-{other}"),
                     format!("Shape \"{}\"", crate::error::one_line(other)),
                 );
+                p.read_all();
                 return Ok(());
             }
         };
