@@ -53,7 +53,7 @@ pub mod math;
 
 pub use accel::Backend;
 pub use error::{Error, Result};
-pub use renderer::{Rendered, Renderer};
+pub use renderer::{PassProgress, Rendered, Renderer};
 pub use scene::Scene;
 pub mod bsdf;
 pub mod build_info;

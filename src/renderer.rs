@@ -9,7 +9,7 @@
 //! effects ([`Plan`]), which renders the same image bits as the general one.
 
 use crate::accel::{self, AccelOptions, Backend};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::image::{self, OutputOptions};
 use crate::integrator::{PathTracer, RayCounts};
@@ -19,6 +19,8 @@ use crate::sampler::SamplerKind;
 use crate::scene::Scene;
 use crate::settings::{self, Flags};
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
 
 /// A render of one scene, configured by chained setters and run by
 /// [`Renderer::render`].
@@ -88,34 +90,88 @@ impl<'s> Renderer<'s> {
     /// Build the backend and render. Errors: settings beyond the limits, a
     /// backend that is not compiled in, or one that fails to build.
     pub fn render(&self) -> Result<Rendered> {
+        self.render_in_passes(1, &AtomicBool::new(false), &|_| {})
+    }
+
+    /// Render in `passes` passes of whole sample indices (as equal as they
+    /// divide; at most one per sample), calling `on_pass` after each and
+    /// checking `stop` before each: set, the render ends with
+    /// [`Error::Interrupted`] after the pass under way. The image is the same,
+    /// bit for bit, as [`Renderer::render`]'s: each pixel's samples are
+    /// summed in index order whatever the passes.
+    pub fn render_in_passes(
+        &self,
+        passes: u32,
+        stop: &AtomicBool,
+        on_pass: &(dyn Fn(PassProgress) + Sync),
+    ) -> Result<Rendered> {
         let scene = self.scene;
         let s = settings::resolve(&scene.render, scene.resolution, &self.flags)?;
         let accel = accel::build(self.backend, scene.soup(), AccelOptions::default())?;
         let kernel = Plan::new(scene, &s.integrator).kernel_for(PlanMode::Specialised);
         let tracer = PathTracer::with_kernel(scene, accel.as_ref(), s.integrator, kernel);
         let [w, h] = s.resolution;
-        let out = render::render(
-            &tracer,
-            &scene.make_camera(w, h),
-            &RenderSettings {
+        let camera = scene.make_camera(w, h);
+        let pool = render::thread_pool(s.threads)?;
+        let mut film = Film::new(w, h);
+        let mut rays = RayCounts::default();
+        let passes = passes.clamp(1, s.spp.max(1));
+        let start = Instant::now();
+        let mut done = 0;
+        for pass in 0..passes {
+            if stop.load(Ordering::SeqCst) {
+                return Err(Error::Interrupted(format!(
+                    "render stopped after {done} of {} samples per pixel",
+                    s.spp
+                )));
+            }
+            // pass `pass` ends at sample floor(spp * (pass + 1) / passes)
+            let end = (u64::from(s.spp) * u64::from(pass + 1) / u64::from(passes)) as u32;
+            let settings = RenderSettings {
                 resolution: s.resolution,
-                spp: s.spp,
-                first_sample: 0,
-                total_spp: None,
+                spp: end - done,
+                first_sample: done,
+                total_spp: Some(s.spp),
                 seed: s.seed,
                 threads: s.threads,
                 tile_size: s.tile_size,
                 sampler: self.sampler,
                 clamp: None,
-            },
-            &|| {},
-        )?;
+            };
+            let out =
+                render::render_pass(&tracer, &camera, &settings, &mut film, None, &pool, &|| {});
+            rays.add(&out.rays);
+            done = end;
+            on_pass(PassProgress {
+                pass: pass + 1,
+                passes,
+                samples: done,
+                spp: s.spp,
+                seconds: start.elapsed().as_secs_f64(),
+            });
+        }
         Ok(Rendered {
-            film: out.film,
-            rays: out.rays,
-            seconds: out.seconds,
+            film,
+            rays,
+            seconds: start.elapsed().as_secs_f64(),
         })
     }
+}
+
+/// Where a render in passes ([`Renderer::render_in_passes`]) stands after a
+/// pass.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PassProgress {
+    /// Passes finished, from 1.
+    pub pass: u32,
+    /// Passes in all.
+    pub passes: u32,
+    /// Samples per pixel finished.
+    pub samples: u32,
+    /// Samples per pixel in all.
+    pub spp: u32,
+    /// Seconds since the first pass began.
+    pub seconds: f64,
 }
 
 /// A finished render.
