@@ -1,9 +1,10 @@
 //! Build script: records the build's identity (see [`identity`]), and finds
 //! Embree 3 and generates its Rust bindings with bindgen.
 //!
-//! It does something only when the `embree` feature is on and `embree4` is
-//! off; with `embree4` the `embree4-sys` crate supplies bindings and linking,
-//! and without either feature there is no Embree at all.
+//! With the `embree` feature (and not `embree4`) it finds Embree 3 and
+//! generates bindings ([`embree3`]); with `embree4` the `embree4-sys` crate
+//! supplies bindings and asks for `-lembree4`, and this script only says where
+//! that library is ([`embree4`]); without either feature there is no Embree.
 //!
 //! Embree is looked for, in order, in
 //! 1. `$EMBREE_DIR/include/embree3/rtcore.h` and `$EMBREE_DIR/lib` (an explicit
@@ -33,10 +34,78 @@ fn main() {
         #[cfg(feature = "embree")]
         embree3::run();
     }
+    if embree4 {
+        embree4::run();
+    }
+}
+
+/// What the Embree 3 and Embree 4 steps share: stopping the build with a
+/// message, pkg-config, and the places libraries live.
+mod find {
+    use std::path::{Path, PathBuf};
+
+    /// Stop the build with `message`. Cargo prints each `cargo::error` line as
+    /// `error: embertrace@...: <line>` and fails the build once the script
+    /// ends (Rust >= 1.84; the crate needs 1.85), so exiting with status 0
+    /// keeps cargo's output to the message alone instead of adding a dump of
+    /// the script's stdout and stderr.
+    pub fn fail(message: &str) -> ! {
+        for line in message.lines() {
+            println!("cargo::error={line}");
+        }
+        std::process::exit(0);
+    }
+
+    /// Whether `dir` holds `lib<name>` in any form (shared, versioned or static).
+    pub fn has_lib(dir: &Path, name: &str) -> bool {
+        let prefix = format!("lib{name}.");
+        std::fs::read_dir(dir).is_ok_and(|entries| {
+            entries
+                .flatten()
+                .any(|e| e.file_name().to_string_lossy().starts_with(&prefix))
+        })
+    }
+
+    /// Run `pkg-config --cflags --libs <name>`; `None` when pkg-config is absent
+    /// or does not know the package.
+    pub fn pkg_config(name: &str) -> Option<String> {
+        let out = std::process::Command::new("pkg-config")
+            .args(["--cflags", "--libs", name])
+            .output()
+            .ok()?;
+        if !out.status.success() {
+            return None;
+        }
+        Some(String::from_utf8_lossy(&out.stdout).into_owned())
+    }
+
+    /// Library directories the linker searches by default on common systems.
+    pub fn system_lib_dirs() -> Vec<PathBuf> {
+        let mut dirs: Vec<PathBuf> = [
+            "/usr/lib",
+            "/usr/lib64",
+            "/usr/local/lib",
+            "/usr/local/lib64",
+        ]
+        .iter()
+        .map(PathBuf::from)
+        .collect();
+        // Debian multiarch: /usr/lib/x86_64-linux-gnu and friends.
+        if let Ok(entries) = std::fs::read_dir("/usr/lib") {
+            dirs.extend(
+                entries
+                    .flatten()
+                    .filter(|e| e.file_name().to_string_lossy().contains("-linux-"))
+                    .map(|e| e.path()),
+            );
+        }
+        dirs
+    }
 }
 
 #[cfg(feature = "embree")]
 mod embree3 {
+    use crate::find::{fail, has_lib, pkg_config, system_lib_dirs};
     use bindgen::callbacks::{EnumVariantValue, ParseCallbacks};
     use std::env;
     use std::path::{Path, PathBuf};
@@ -44,18 +113,6 @@ mod embree3 {
     /// The one fix to print whenever Embree 3 or libclang is missing.
     const FIX: &str = "install them with: apt-get install libembree-dev libclang-dev   \
                        (or build without Embree: cargo build --no-default-features)";
-
-    /// Stop the build with `message`. Cargo prints each `cargo::error` line as
-    /// `error: embertrace@...: <line>` and fails the build once the script
-    /// ends (Rust >= 1.84; the crate needs 1.85), so exiting with status 0
-    /// keeps cargo's output to the message alone instead of adding a dump of
-    /// the script's stdout and stderr.
-    fn fail(message: &str) -> ! {
-        for line in message.lines() {
-            println!("cargo::error={line}");
-        }
-        std::process::exit(0);
-    }
 
     /// The message for a missing Embree 3 or libclang.
     fn missing(what: &str) -> ! {
@@ -93,16 +150,6 @@ mod embree3 {
         h.is_file().then_some(h)
     }
 
-    /// Whether `dir` holds `libembree3` in any form (shared, versioned or static).
-    fn has_lib(dir: &Path, name: &str) -> bool {
-        let prefix = format!("lib{name}.");
-        std::fs::read_dir(dir).is_ok_and(|entries| {
-            entries
-                .flatten()
-                .any(|e| e.file_name().to_string_lossy().starts_with(&prefix))
-        })
-    }
-
     /// Step 1: `EMBREE_DIR`. `None` when unset; an error when set but wrong.
     fn from_embree_dir() -> Option<Embree3> {
         let dir = PathBuf::from(env::var_os("EMBREE_DIR")?);
@@ -134,19 +181,6 @@ mod embree3 {
         })
     }
 
-    /// Run `pkg-config --cflags --libs <name>`; `None` when pkg-config is absent
-    /// or does not know the package.
-    fn pkg_config(name: &str) -> Option<String> {
-        let out = std::process::Command::new("pkg-config")
-            .args(["--cflags", "--libs", name])
-            .output()
-            .ok()?;
-        if !out.status.success() {
-            return None;
-        }
-        Some(String::from_utf8_lossy(&out.stdout).into_owned())
-    }
-
     /// System include directories searched for `embree<major>/rtcore.h`.
     const SYSTEM_INCLUDES: [&str; 2] = ["/usr/include", "/usr/local/include"];
 
@@ -176,29 +210,6 @@ mod embree3 {
             .chain(SYSTEM_INCLUDES.iter().map(Path::new));
         found.header = candidates.into_iter().find_map(|d| header_in(d, 3))?;
         Some(found)
-    }
-
-    /// Library directories the linker searches by default on common systems.
-    fn system_lib_dirs() -> Vec<PathBuf> {
-        let mut dirs: Vec<PathBuf> = [
-            "/usr/lib",
-            "/usr/lib64",
-            "/usr/local/lib",
-            "/usr/local/lib64",
-        ]
-        .iter()
-        .map(PathBuf::from)
-        .collect();
-        // Debian multiarch: /usr/lib/x86_64-linux-gnu and friends.
-        if let Ok(entries) = std::fs::read_dir("/usr/lib") {
-            dirs.extend(
-                entries
-                    .flatten()
-                    .filter(|e| e.file_name().to_string_lossy().contains("-linux-"))
-                    .map(|e| e.path()),
-            );
-        }
-        dirs
     }
 
     /// Step 3: system headers plus `libembree3` in a default linker path.
@@ -358,11 +369,80 @@ mod embree3 {
     }
 }
 
+/// Where `libembree4` is, for the `embree4` feature: `embree4-sys` generates
+/// the bindings from the headers it carries and asks for `-lembree4`, but
+/// says nothing about where the library lives. Looked for, in order, in
+/// 1. `$EMBREE_DIR/lib` (or `lib64`), such as the directory
+///    `scripts/embree4.sh` prints (an explicit `EMBREE_DIR` without
+///    `libembree4` is an error, never skipped);
+/// 2. `pkg-config embree4`;
+/// 3. the default library directories.
+///
+/// A directory the linker would not search by default is added to the
+/// search path and, so that the binaries, tests and Python module find the
+/// library when they run, to their RPATH.
+mod embree4 {
+    use crate::find::{fail, has_lib, pkg_config, system_lib_dirs};
+    use std::env;
+    use std::path::PathBuf;
+
+    /// The one fix to print whenever Embree 4 is missing.
+    const FIX: &str = "install your system's Embree 4 (e.g. `dnf install embree-devel`, \
+                       `brew install embree`) or, on Debian 12, which has none, \
+                       `export EMBREE_DIR=\"$(bash scripts/embree4.sh)\"` (Embree 4.4 \
+                       from PyPI's embreex wheel); or use Embree 3 (the default features)";
+
+    fn missing(what: &str) -> ! {
+        fail(&format!(
+            "the `embree4` feature needs libembree4, but {what}.\n{FIX}"
+        ))
+    }
+
+    /// Directories to add to the link search path and the RPATH.
+    fn locate() -> Vec<PathBuf> {
+        println!("cargo:rerun-if-env-changed=EMBREE_DIR");
+        println!("cargo:rerun-if-env-changed=PKG_CONFIG_PATH");
+        if let Some(dir) = env::var_os("EMBREE_DIR").map(PathBuf::from) {
+            let Some(lib) = ["lib", "lib64", ""]
+                .iter()
+                .map(|l| dir.join(l))
+                .find(|l| has_lib(l, "embree4"))
+            else {
+                missing(&format!(
+                    "EMBREE_DIR={} has no lib/libembree4.*",
+                    dir.display()
+                ));
+            };
+            return vec![lib];
+        }
+        if let Some(flags) = pkg_config("embree4") {
+            return flags
+                .split_whitespace()
+                .filter_map(|t| t.strip_prefix("-L"))
+                .map(PathBuf::from)
+                .collect();
+        }
+        if system_lib_dirs().iter().any(|d| has_lib(d, "embree4")) {
+            return Vec::new();
+        }
+        missing(
+            "neither EMBREE_DIR, nor pkg-config embree4, nor a default library directory has it",
+        )
+    }
+
+    pub fn run() {
+        for dir in locate() {
+            println!("cargo:rustc-link-search=native={}", dir.display());
+            println!("cargo:rustc-link-arg=-Wl,-rpath,{}", dir.display());
+        }
+    }
+}
+
 /// The build's identity, for `--version` and the farm's provenance
 /// (`src/build_info.rs`): `EMBERTRACE_SOURCE_DIGEST`, a 64-bit FNV-1a hash
 /// of every file under `src/` (by path, sorted), `build.rs` and
-/// `Cargo.lock`, so that two builds from different code (anything that
-/// could change a pixel) differ; and `EMBERTRACE_COMMIT`, the commit the
+/// `Cargo.lock`, and the enabled features, so that two builds from different
+/// code (anything that could change a pixel) differ; and `EMBERTRACE_COMMIT`, the commit the
 /// tree was at (`-dirty` when it had changes), or `unknown` outside a git
 /// checkout.
 mod identity {
@@ -408,7 +488,18 @@ mod identity {
             eat(&std::fs::read(p).unwrap_or_default());
             eat(&[0]);
         }
+        // The features choose the ray backend (Embree 3 or 4 may round a hit
+        // differently), so builds of one tree with different features differ.
+        let mut features: Vec<String> = std::env::vars()
+            .filter_map(|(k, _)| k.strip_prefix("CARGO_FEATURE_").map(str::to_string))
+            .collect();
+        features.sort();
+        eat(features.join(",").as_bytes());
         println!("cargo:rustc-env=EMBERTRACE_SOURCE_DIGEST={h:016x}");
+        println!(
+            "cargo:rustc-env=EMBERTRACE_FEATURES={}",
+            features.join(",").to_lowercase()
+        );
         let commit = match git(&["rev-parse", "--short=12", "HEAD"]) {
             Some(c) => {
                 let dirty = git(&[

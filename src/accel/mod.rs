@@ -28,6 +28,29 @@ pub mod triangle;
 #[allow(unsafe_code)]
 pub mod embree;
 
+/// Which Embree this build binds: `Some(3)` with the `embree` feature,
+/// `Some(4)` with `embree4` (which takes precedence), `None` without Embree.
+pub const EMBREE_MAJOR: Option<u32> = if cfg!(feature = "embree4") {
+    Some(4)
+} else if cfg!(feature = "embree") {
+    Some(3)
+} else {
+    None
+};
+
+/// The Embree library this process runs on, as `"Embree 4.4.0"`: `None` in
+/// a build without Embree, the reason in place of the version when no device
+/// could be made.
+pub fn embree_library() -> Option<String> {
+    #[cfg(any(feature = "embree", feature = "embree4"))]
+    return Some(match embree::library_version() {
+        Ok(v) => format!("Embree {v}"),
+        Err(e) => format!("Embree (no device: {e})"),
+    });
+    #[cfg(not(any(feature = "embree", feature = "embree4")))]
+    None
+}
+
 use crate::error::Result;
 use crate::math::{Ray, Vec3};
 use crate::shape::Sphere;

@@ -146,6 +146,15 @@ impl Device {
         value != 0
     }
 
+    /// The library's version, as Embree encodes it (`40400` for 4.4.0).
+    pub(super) fn version(&self) -> u64 {
+        // SAFETY: `self.handle` is a live device; reading a property changes
+        // nothing and takes no pointers.
+        let value =
+            unsafe { sys::rtcGetDeviceProperty(self.raw(), sys::RTCDeviceProperty::VERSION) };
+        value as u64
+    }
+
     /// Bytes Embree currently holds for this device, as its memory monitor
     /// reported them.
     pub(super) fn memory_bytes(&self) -> usize {

@@ -57,6 +57,14 @@ use crate::error::Result;
 use crate::math::Ray;
 use std::sync::atomic::{AtomicU64, Ordering};
 
+/// The version of the Embree library this process loaded, as `"4.4.0"`
+/// (asked of a fresh device: the library found at run time, which may not be
+/// the one the headers described).
+pub fn library_version() -> Result<String> {
+    let v = Device::new("")?.version();
+    Ok(format!("{}.{}.{}", v / 10000, v / 100 % 100, v % 100))
+}
+
 // Embree requires 16-byte aligned single rays; the generated structs carry
 // `align(16)` from `RTC_ALIGN(16)` in the header. Checked for both bindings.
 const _: () = assert!(align_of::<sys::RTCRayHit>() >= 16 && align_of::<sys::RTCRay>() >= 16);

@@ -579,3 +579,19 @@ fn memory_monitor_counts_the_build() {
         "{per_tri} bytes per triangle"
     );
 }
+
+#[test]
+fn the_library_loaded_is_the_major_version_the_build_binds() {
+    // an embree4 build that found Embree 3 at run time (or the reverse)
+    // would fail here, not in some query with a mismatched struct
+    let version = library_version().unwrap();
+    let major = crate::accel::EMBREE_MAJOR.expect("an Embree build");
+    assert!(
+        version.starts_with(&format!("{major}.")),
+        "built for Embree {major}, running on {version}"
+    );
+    assert_eq!(
+        crate::accel::embree_library(),
+        Some(format!("Embree {version}"))
+    );
+}

@@ -78,6 +78,10 @@ pub struct ThroughputReport {
     pub threads: usize,
     /// Repetitions per figure (the median is reported).
     pub reps: usize,
+    /// The Embree library the `embree` row ran on (`"Embree 4.4.0"`), null
+    /// in a build without Embree: Embree 3 and 4 cannot share a process, so
+    /// `scripts/bench-embree` compares the two builds' reports.
+    pub embree: Option<String>,
     /// One row per backend.
     pub backends: Vec<BackendResult>,
 }
@@ -256,6 +260,10 @@ pub fn run(
         triangles: scene.triangle_count(),
         threads,
         reps,
+        embree: backends
+            .contains(&Backend::Embree)
+            .then(accel::embree_library)
+            .flatten(),
         backends: rows,
     })
 }
@@ -267,6 +275,9 @@ impl ThroughputReport {
             "{}: {} triangles; Mrays/s, median of {} runs; 1 thread / {} threads\n",
             self.scene, self.triangles, self.reps, self.threads
         );
+        if let Some(lib) = &self.embree {
+            out += &format!("embree: {lib}\n");
+        }
         out += &format!("{:<8} {:>9} {:>9}", "backend", "build ms", "B/tri");
         for k in THROUGHPUT_RAY_KINDS {
             out += &format!(" {:>17}", k.name());
