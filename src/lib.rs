@@ -65,6 +65,7 @@ pub mod image;
 pub mod integrator;
 pub mod light;
 pub mod limits;
+pub mod log;
 pub mod memory;
 pub mod outputs;
 pub mod plan;

@@ -16,6 +16,14 @@ use std::process::ExitCode;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Print nothing on stderr but errors and warnings (what the image will
+    /// lack): no notes, no progress.
+    #[arg(short = 'q', long, global = true, conflicts_with = "verbose")]
+    quiet: bool,
+    /// Say more on stderr: -v the settings resolved, the backend and its
+    /// library, build and load times; -vv diagnostics too.
+    #[arg(short = 'v', long, global = true, action = clap::ArgAction::Count)]
+    verbose: u8,
 }
 
 #[derive(Subcommand)]
@@ -85,16 +93,30 @@ fn print_bytes(bytes: &[u8]) -> Result<(), Error> {
     }
 }
 
+/// `-q`, `--quiet`, `-v`, `-vv`, ..., `--verbose`.
+fn is_verbosity_flag(a: &str) -> bool {
+    matches!(a, "-q" | "--quiet" | "--verbose")
+        || a.strip_prefix('-')
+            .is_some_and(|v| !v.is_empty() && v.chars().all(|c| c == 'v'))
+}
+
 fn main() -> ExitCode {
     // arguments as the OS gives them: a path need not be UTF-8
     let mut argv: Vec<std::ffi::OsString> = std::env::args_os().collect();
-    if argv.len() > 1 && !SUBCOMMANDS.contains(&argv[1].to_str().unwrap_or("")) {
+    // the global -q/-v may come before the subcommand
+    let first = argv
+        .iter()
+        .skip(1)
+        .map(|a| a.to_str().unwrap_or(""))
+        .find(|a| !is_verbosity_flag(a));
+    if first.is_some_and(|a| !SUBCOMMANDS.contains(&a)) {
         argv.insert(1, "render".into());
     }
     let cli = match Cli::try_parse_from(argv) {
         Ok(cli) => cli,
         Err(e) => return command_line_error(e),
     };
+    embertrace::log::set_level(embertrace::log::Level::from_flags(cli.quiet, cli.verbose));
     let result = match cli.command {
         Command::Render(args) => render::run(*args),
         Command::Bench(args) => bench::run(args),

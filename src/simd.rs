@@ -39,7 +39,7 @@ pub fn active() -> Level {
                 Ok(v) => match v.parse::<Choice>().and_then(Choice::resolve) {
                     Ok(l) => l,
                     Err(e) => {
-                        eprintln!("warning: EMBERTRACE_SIMD ignored: {e}");
+                        crate::log::warn(&format!("EMBERTRACE_SIMD ignored: {e}"));
                         Level::detected()
                     }
                 },

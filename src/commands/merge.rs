@@ -93,7 +93,7 @@ pub fn run(args: MergeArgs) -> Result<()> {
     if let Some(r) = &args.report {
         write_json(r, &report)?;
     }
-    eprintln!(
+    crate::log::note(&format!(
         "merged {} parts into {} ({} x {} pixels, samples {}..{}) in {:.2} s",
         args.parts.len(),
         args.output.display(),
@@ -102,6 +102,6 @@ pub fn run(args: MergeArgs) -> Result<()> {
         prov.samples.start,
         prov.samples.end,
         report.seconds
-    );
+    ));
     Ok(())
 }

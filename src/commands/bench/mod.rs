@@ -112,7 +112,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             reps: args.reps,
             options: args.build.options(),
         };
-        let report = efficiency::run(&scene, &settings, integrator, &|line| eprintln!("{line}"))?;
+        let report = efficiency::run(&scene, &settings, integrator, &crate::log::note)?;
         print!("{}", report.table());
         if let Some(j) = &args.json {
             write_json(j, &report)?;
@@ -128,7 +128,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             threads: resolved.threads,
             options: args.build.options(),
         };
-        let report = effect_costs::run(&scene, &settings, integrator, &|line| eprintln!("{line}"))?;
+        let report = effect_costs::run(&scene, &settings, integrator, &crate::log::note)?;
         print!("{}", report.table());
         if let Some(j) = &args.json {
             write_json(j, &report)?;
@@ -151,7 +151,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         rays: args.rays,
         options: args.build.options(),
     };
-    let report = throughput::run(&scene, &settings, &|line| eprintln!("{line}"))?;
+    let report = throughput::run(&scene, &settings, &crate::log::note)?;
     print!("{}", report.table());
     if let Some(j) = &args.json {
         write_json(j, &report)?;

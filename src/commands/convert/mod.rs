@@ -23,6 +23,10 @@ pub struct ConvertArgs {
 pub fn run(args: ConvertArgs) -> Result<()> {
     let scene = Scene::load(&args.input)?;
     let w = convert(&scene, &args.output)?;
-    eprintln!("wrote {} ({} files)", args.output.display(), w.files.len());
+    crate::log::note(&format!(
+        "wrote {} ({} files)",
+        args.output.display(),
+        w.files.len()
+    ));
     Ok(())
 }

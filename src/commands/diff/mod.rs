@@ -78,7 +78,7 @@ pub fn run(args: DiffArgs) -> Result<()> {
     }
     if let Some(p) = &args.error_image {
         let top = write_error_image(p, &a, &b, args.error_scale)?;
-        eprintln!("error image: {} (white = {top:.3e})", p.display());
+        crate::log::note(&format!("error image: {} (white = {top:.3e})", p.display()));
     }
     if let Some(j) = &args.json {
         write_json(j, &stats)?;

@@ -88,7 +88,7 @@ pub fn run(args: ParityArgs) -> Result<()> {
         image_spp: resolved.spp,
         integrator: resolved.integrator,
     };
-    let report = check::run(&scene, &settings, &|line| eprintln!("{line}"))?;
+    let report = check::run(&scene, &settings, &crate::log::note)?;
     print!("{}", report.table());
     if let Some(j) = &args.json {
         write_json(j, &report)?;

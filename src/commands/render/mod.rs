@@ -13,6 +13,7 @@ use crate::farm::{self, Shard};
 use crate::film;
 use crate::image::{self, OutputOptions};
 use crate::integrator::PathTracer;
+use crate::log;
 use crate::outputs::{self, Inputs};
 use crate::plan::{Plan, PlanMode};
 use crate::progressive::{Adaptive, Budget, CONFIDENCE, PassRecord, render_progressive};
@@ -24,7 +25,6 @@ use crate::settings::{DirectStrategy, IntegratorSettings, Roulette};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use report::{ErrorEstimate, ProgressiveReport, RenderReport};
-use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -151,10 +151,6 @@ pub struct RenderArgs {
     /// the report states the energy removed) [default: no clamp].
     #[arg(long, value_name = "MAX", allow_negative_numbers = true)]
     clamp: Option<f32>,
-    /// Print nothing but errors and the scene's warnings (what the file
-    /// asks for that the image will lack): no notes, no progress.
-    #[arg(short = 'q', long)]
-    quiet: bool,
     /// Stop after the pass that reaches this many seconds of rendering
     /// (-s, if given, still caps the samples per pixel).
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
@@ -244,11 +240,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if let Some(r) = &args.report {
         crate::commands::render::report::check_report_path(r)?;
     }
-    let say = |msg: &str| {
-        if !args.quiet {
-            eprintln!("{msg}");
-        }
-    };
+    let say = log::note;
     let adaptive = match args.adaptive.as_deref() {
         None => None,
         Some(&[batch, tolerance]) => {
@@ -406,7 +398,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     // a warning is something the file asked for that the image lacks:
     // -q hides progress and notes, never these
     for warning in &scene.warnings {
-        eprintln!("warning: {}", clip(warning));
+        log::warn(&clip(warning));
     }
     let backend = args.accel.unwrap_or_else(Backend::default_backend);
 
@@ -431,7 +423,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     };
     let side = crate::render::tile_side(settings.tile_size);
     let tiles = (w.div_ceil(side) * h.div_ceil(side)) as u64;
-    let bar = if std::io::stderr().is_terminal() && !args.quiet {
+    let bar = if log::progress_bars() {
         let b = ProgressBar::new(tiles);
         if let Ok(style) =
             ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent}% eta {eta}")
@@ -458,6 +450,31 @@ pub fn run(args: RenderArgs) -> Result<()> {
         scene.triangle_count(),
         integrator.max_depth
     ));
+    if log::enabled(log::Level::Verbose) {
+        let library = (backend == Backend::Embree)
+            .then(accel::embree_library)
+            .flatten()
+            .map_or(String::new(), |l| format!(" ({l})"));
+        log::detail(&format!(
+            "loaded in {load_seconds:.3} s; backend {backend}{library} built in {accel_build_seconds:.3} s, {} bytes",
+            accel.memory_bytes()
+        ));
+        log::detail(&format!(
+            "settings: seed {seed}, sampler {}, tiles of {side} px, {} threads, SIMD {}, effects [{}]",
+            args.sampler,
+            match resolved.threads {
+                0 => std::thread::available_parallelism().map_or(1, usize::from),
+                n => n,
+            },
+            crate::simd::active(),
+            plan.on().join(", ")
+        ));
+        log::detail(&format!("kernel: {}", kernel.describe()));
+        log::debug(&format!(
+            "build {}",
+            crate::build_info::LONG_VERSION.replace('\n', "; ")
+        ));
+    }
     budget.max_spp = spp;
     let progressive = budget.is_progressive() || reference.is_some();
     let mut part_provenance = None;
@@ -530,12 +547,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
                     p.relative_error
                 );
             }
-            if !args.quiet {
-                eprintln!(
-                    "pass {}: {} spp, {:.2} s, relative error {:.4}, {} pixels active",
-                    p.pass, p.spp, p.seconds, p.relative_error, p.active_pixels
-                );
-            }
+            log::note(&format!(
+                "pass {}: {} spp, {:.2} s, relative error {:.4}, {} pixels active",
+                p.pass, p.spp, p.seconds, p.relative_error, p.active_pixels
+            ));
             Ok(())
         };
         let po = render_progressive(&tracer, &camera, &settings, &budget, &mut on_pass)?;
@@ -581,22 +596,20 @@ pub fn run(args: RenderArgs) -> Result<()> {
     report.simd = crate::simd::active().to_string();
     if let Some(p) = progress {
         report.spp = p.spp_reached;
-        if !args.quiet {
-            eprintln!(
-                "stopped ({:?}) at {} spp after {} passes; relative error {:.4} at {:.0} % confidence",
-                p.stop,
-                p.spp_reached,
-                p.passes,
-                p.relative_error.estimate,
-                p.relative_error.confidence * 100.0
-            );
-        }
+        log::note(&format!(
+            "stopped ({:?}) at {} spp after {} passes; relative error {:.4} at {:.0} % confidence",
+            p.stop,
+            p.spp_reached,
+            p.passes,
+            p.relative_error.estimate,
+            p.relative_error.confidence * 100.0
+        ));
         report.progressive = Some(p);
     }
     let bad = &out.nonfinite;
     if bad.count > 0 {
-        say(&format!(
-            "warning: {} samples left out ({} NaN, {} infinite, {} negative), first at pixel {:?}",
+        log::warn(&format!(
+            "{} samples left out ({} NaN, {} infinite, {} negative), first at pixel {:?}",
             bad.count, bad.nan, bad.inf, bad.negative, bad.pixels[0]
         ));
         if args.strict {

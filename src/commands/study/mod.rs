@@ -7,6 +7,7 @@ pub mod runs;
 use super::BuildArgs;
 use crate::accel::Backend;
 use crate::error::{Error, Result};
+use crate::log;
 use crate::sampler::SamplerKind;
 use crate::scene::Scene;
 use crate::settings::{self, Flags, LightSampler};
@@ -67,9 +68,6 @@ pub struct StudyArgs {
     light_sampler: Option<LightSampler>,
     #[command(flatten)]
     build: BuildArgs,
-    /// Print nothing but errors.
-    #[arg(short = 'q', long)]
-    quiet: bool,
 }
 
 /// Run `embertrace study`.
@@ -124,14 +122,9 @@ pub fn run(args: StudyArgs) -> Result<()> {
         base,
         build: args.build.options(),
     };
-    let quiet = args.quiet;
-    let say = move |m: &str| {
-        if !quiet {
-            eprintln!("{m}");
-        }
-    };
-    let rows = runs::run(&args.scene, &scene, &opts, &say)?;
-    if !quiet {
+    let rows = runs::run(&args.scene, &scene, &opts, &log::note)?;
+    // -q: the files alone, no table on stdout either
+    if log::enabled(log::Level::Normal) {
         for r in &rows {
             println!(
                 "{:<40} {:>8.3} s  relMSE {:.3e}  efficiency {:.3e}{}",
