@@ -16,6 +16,13 @@ set -euo pipefail
 version=4.4.0
 dir="${EMBREE4_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/embertrace/embree4-$version}"
 if [ ! -e "$dir/lib/libembree4.so" ]; then
+  if ! python3 -m pip --version >/dev/null 2>&1; then
+    sudo=""
+    [ "$(id -u)" -eq 0 ] || sudo="sudo"
+    echo "installing python3-pip (apt-get), to download the embreex wheel" >&2
+    $sudo apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq python3-pip >/dev/null
+  fi
   tmp="$(mktemp -d)"
   trap 'rm -rf "$tmp"' EXIT
   # Any CPython's wheel carries the same library: name one, so that the
