@@ -73,7 +73,13 @@ fn verbose_render_adds_the_details() {
     ]);
     assert!(o.status.success());
     let e = stderr(&o);
-    for needle in ["rendering", "loaded in", "backend bvh built in", "settings: seed", "kernel:"] {
+    for needle in [
+        "rendering",
+        "loaded in",
+        "backend bvh built in",
+        "settings: seed",
+        "kernel:",
+    ] {
         assert!(e.contains(needle), "{needle:?} missing from {e}");
     }
     assert!(!e.contains("debug:"), "{e}");
@@ -85,7 +91,17 @@ fn verbose_render_adds_the_details() {
 fn the_course_form_takes_a_leading_quiet_flag() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("c.png");
-    let o = embertrace(&["-q", "-r", "8", "8", "-s", "1", "-f", out.to_str().unwrap(), SCENE]);
+    let o = embertrace(&[
+        "-q",
+        "-r",
+        "8",
+        "8",
+        "-s",
+        "1",
+        "-f",
+        out.to_str().unwrap(),
+        SCENE,
+    ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(stderr(&o), "");
     assert!(out.is_file());
