@@ -159,6 +159,61 @@ pub(super) fn write_exr(path: &Path, film: &Rgb, metadata: &[(String, String)]) 
     write_exr_image(path, &image)
 }
 
+/// One named image of a layered EXR ([`write_exr_layers`]): channel
+/// suffixes and the planar values of each, row-major from the top.
+#[derive(Debug, Clone)]
+pub struct ExrLayer {
+    /// The layer's name (`albedo`), empty for the main image's `R`, `G`, `B`.
+    pub name: String,
+    /// One `(channel, values)` pair per channel: `("R", ...)`, `("Z", ...)`.
+    pub channels: Vec<(String, Vec<f32>)>,
+}
+
+/// Writes `layers` as one OpenEXR image, lossless (ZIP), atomically: the
+/// single-part "multi-layer" layout compositors read (Nuke, Blender,
+/// OpenImageIO), each channel named `layer.channel` (`albedo.R`,
+/// `depth.Z`), the main image's channels bare. `metadata` as in
+/// [`write_image`](super::write_image).
+pub fn write_exr_layers(
+    path: &Path,
+    width: u32,
+    height: u32,
+    layers: &[ExrLayer],
+    metadata: &[(String, String)],
+) -> Result<()> {
+    use ::exr::prelude::{AnyChannel, Encoding, SmallVec};
+
+    check_exr_metadata(path, metadata)?;
+    let n = width as usize * height as usize;
+    let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
+    for layer in layers {
+        for (suffix, values) in &layer.channels {
+            let name = match layer.name.as_str() {
+                "" => suffix.clone(),
+                l => format!("{l}.{suffix}"),
+            };
+            if values.len() != n {
+                return Err(Error::Settings(format!(
+                    "{}: channel {name} holds {} values for {width} x {height} pixels",
+                    path.display(),
+                    values.len()
+                )));
+            }
+            channels.push(AnyChannel::new(
+                name.as_str(),
+                FlatSamples::F32(values.clone()),
+            ));
+        }
+    }
+    let layer = Layer::new(
+        (width as usize, height as usize),
+        exr_layer_attributes(metadata),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(channels),
+    );
+    write_exr_image(path, &Image::from_layer(layer))
+}
+
 /// Reads the R, G, B channels of the first layer of an OpenEXR file as `f32`:
 /// `(width, height, pixels)` with `pixels` row-major, top row first, 3 floats
 /// per pixel. The size is the layer's data window.
@@ -292,6 +347,44 @@ mod tests {
             assert!(matches!(err, Error::Settings(_)), "{err}");
         }
         assert!(entries(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn layered_exr_names_each_channel_after_its_layer_and_keeps_the_values() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("aovs.exr");
+        let plane = |k: f32| (0..6).map(|i| i as f32 * k).collect::<Vec<f32>>();
+        let layers = [
+            ExrLayer {
+                name: String::new(),
+                channels: vec![
+                    ("R".into(), plane(1.0)),
+                    ("G".into(), plane(2.0)),
+                    ("B".into(), plane(3.0)),
+                ],
+            },
+            ExrLayer {
+                name: "depth".into(),
+                channels: vec![("Z".into(), plane(0.5))],
+            },
+        ];
+        write_exr_layers(&path, 3, 2, &layers, &[]).unwrap();
+        let read = read_exr_channels(&path).unwrap();
+        let names: Vec<String> = read
+            .channel_data
+            .list
+            .iter()
+            .map(|c| c.name.to_string())
+            .collect();
+        assert_eq!(names, ["B", "G", "R", "depth.Z"]);
+        let depth = &read.channel_data.list[3].sample_data;
+        assert_eq!(depth.values_as_f32().collect::<Vec<_>>(), plane(0.5));
+        let short = [ExrLayer {
+            name: "x".into(),
+            channels: vec![("Y".into(), vec![1.0])],
+        }];
+        let e = write_exr_layers(&path, 3, 2, &short, &[]).unwrap_err();
+        assert!(e.to_string().contains("x.Y holds 1 values"), "{e}");
     }
 
     #[test]

@@ -17,10 +17,10 @@ mod pfm;
 mod png;
 mod srgb;
 
+pub use self::exr::{ExrLayer, read_exr, read_exr_metadata, write_exr_layers};
 pub(crate) use self::exr::{
     check_exr_sizes, exr_layer_attributes, read_exr_channels, write_exr_image,
 };
-pub use self::exr::{read_exr, read_exr_metadata};
 pub(crate) use atomic::write_atomically;
 pub use atomic::write_file_atomically;
 pub use pfm::read_pfm;
