@@ -120,12 +120,21 @@ const AUX_DELTA_CHAIN: usize = 8;
 ///   colour.
 /// - `normal`: the first hit's shading normal (smooth normals, normal and
 ///   bump maps applied), world space, facing the camera; zero on a miss.
+/// - `first_hit`: where the camera ray first hits a surface (world space)
+///   and how far along the ray that is; `None` on a miss.
+/// - `emitted`: the estimator's zero-bounce term for this ray, the same
+///   value it adds.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Auxiliary {
     /// First non-delta hit's reflectance.
     pub albedo: Vec3,
     /// First hit's shading normal.
     pub normal: Vec3,
+    /// First hit's position and distance from the ray's origin.
+    pub first_hit: Option<(Vec3, f32)>,
+    /// What the path tracer adds before the first bounce: the first hit's
+    /// emission, or the environment's radiance where the ray escapes.
+    pub emitted: Vec3,
 }
 
 /// The reflectance [`Auxiliary::albedo`] reports for a non-delta BSDF.
@@ -233,8 +242,12 @@ impl<'a> PathTracer<'a> {
 
     /// The denoiser's auxiliary values along camera ray `ray` ([`Auxiliary`]).
     pub fn auxiliary(&self, ray: &Ray) -> Auxiliary {
-        let (albedo, normal) = self.auxiliary_values(ray);
-        Auxiliary { albedo, normal }
+        self.auxiliary_values(ray)
+    }
+
+    /// [`Auxiliary::emitted`] alone, without shading the hit.
+    pub fn first_emission(&self, ray: &Ray) -> Vec3 {
+        self.first_emission_value(ray)
     }
 
     /// The camera ray for film position `p`: a lens sample is drawn only by a

@@ -850,32 +850,61 @@ impl<'a> PathTracer<'a> {
     /// normal)` (see [`super::Auxiliary`] for the definitions). Runs the
     /// general rules (spheres, smooth normals, maps, textures) whatever the
     /// kernel, so it needs no plan.
-    pub(super) fn auxiliary_values(&self, ray: &Ray) -> (Vec3, Vec3) {
-        let mut ray = *ray;
-        let mut normal = None;
+    pub(super) fn auxiliary_values(&self, camera_ray: &Ray) -> super::Auxiliary {
+        let mut ray = *camera_ray;
+        let mut first: Option<(Vec3, Vec3, f32)> = None;
+        let mut emitted = None;
+        let aux = |albedo: Vec3, first: Option<(Vec3, Vec3, f32)>, emitted: Option<Vec3>| {
+            super::Auxiliary {
+                albedo,
+                normal: first.map_or(Vec3::ZERO, |f| f.0),
+                first_hit: first.map(|f| (f.1, f.2)),
+                emitted: emitted.unwrap_or(Vec3::ZERO),
+            }
+        };
         for _ in 0..super::AUX_DELTA_CHAIN {
             let found = match self.alpha {
                 None => self.accel.intersect(&ray),
                 Some(alpha) => self.accel.intersect_masked(&ray, alpha),
             };
             let Some(hit) = found else {
-                let env = self.lights.environment(ray.d).clamp(Vec3::ZERO, Vec3::ONE);
-                return (env, normal.unwrap_or(Vec3::ZERO));
+                let env = self.lights.environment(ray.d);
+                emitted.get_or_insert(env);
+                return aux(env.clamp(Vec3::ZERO, Vec3::ONE), first, emitted);
             };
             let its = self.interaction::<true>(&ray, &hit);
-            let normal = *normal.get_or_insert(its.ns);
+            first.get_or_insert_with(|| (its.ns, its.sp.p, (its.sp.p - camera_ray.o).length()));
+            let le = self.emitted(&its);
+            emitted.get_or_insert(le);
             let sh = self.shading_point::<Bsdf, true, true>(its);
             if !sh.bsdf.is_delta() {
-                return (super::reflectance(&sh.bsdf), normal);
+                // an emitter reports its emission too, clamped as the
+                // environment's is: its edge against a surface of the same
+                // reflectance and normal (a ceiling light) shows in the albedo
+                let albedo = (super::reflectance(&sh.bsdf) + le).clamp(Vec3::ZERO, Vec3::ONE);
+                return aux(albedo, first, emitted);
             }
             // a delta surface: on along its first lobe
             let Some(bs) = sh.bsdf.sample(sh.wo_local, Vec2::new(0.0, 0.5)) else {
-                return (Vec3::ONE, normal);
+                return aux(Vec3::ONE, first, emitted);
             };
             let wi = sh.frame.to_world(bs.wi);
             ray = spawn_ray(&its.sp, wi);
         }
-        (Vec3::ONE, normal.unwrap_or(Vec3::ZERO))
+        aux(Vec3::ONE, first, emitted)
+    }
+
+    /// The zero-bounce term of camera ray `ray`: what the first hit emits
+    /// towards it, or the environment where it escapes.
+    pub(super) fn first_emission_value(&self, ray: &Ray) -> Vec3 {
+        let found = match self.alpha {
+            None => self.accel.intersect(ray),
+            Some(alpha) => self.accel.intersect_masked(ray, alpha),
+        };
+        match found {
+            None => self.lights.environment(ray.d),
+            Some(hit) => self.emitted(&self.interaction::<true>(ray, &hit)),
+        }
     }
 
     /// Emission leaving the surface towards the viewer.
