@@ -37,6 +37,21 @@ fn main() {
     if embree4 {
         embree4::run();
     }
+    if env::var_os("CARGO_FEATURE_DENOISE").is_some() {
+        oidn_rpath();
+    }
+}
+
+/// With the `denoise` feature the `oidn` crate links OpenImageDenoise from
+/// `$OIDN_DIR/lib` (else pkg-config) but leaves finding it at run time to
+/// the loader: put that directory in the binaries' RPATH, as for Embree 4.
+/// Without `OIDN_DIR` the library is a system one the loader finds itself.
+fn oidn_rpath() {
+    println!("cargo:rerun-if-env-changed=OIDN_DIR");
+    if let Some(dir) = env::var_os("OIDN_DIR").filter(|d| !d.is_empty()) {
+        let lib = std::path::Path::new(&dir).join("lib");
+        println!("cargo:rustc-link-arg=-Wl,-rpath,{}", lib.display());
+    }
 }
 
 /// What the Embree 3 and Embree 4 steps share: stopping the build with a

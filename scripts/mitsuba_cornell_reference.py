@@ -12,7 +12,7 @@ them; nothing here is tuned to embertrace's output.
     pip install mitsuba numpy
     # faster (llvm_ad_rgb): apt-get install libllvm19 and
     # DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1
-    python3 scripts/mitsuba_cornell_reference.py [SPP_PER_PASS]
+    python3 scripts/mitsuba_cornell_reference.py [SPP_PER_PASS [RESOLUTION]]
 
 Conventions matched (see also scripts/mitsuba_materials_check.py):
 - embertrace's max_depth k (bounces) is Mitsuba's max_depth k + 1 (segments);
@@ -35,9 +35,12 @@ import numpy as np
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENES = os.path.join(ROOT, "scenes")
 OUT = os.path.join(ROOT, "tests", "data")
-RES = 32
-PASSES = 8
 SPP = int(sys.argv[1]) if len(sys.argv) > 1 else 32768
+# 32 for tests/reference_image.rs; 128 (with SPP 1024) for the denoising
+# measurements of docs/guide/denoising.md and tests/denoise.rs
+RES = int(sys.argv[2]) if len(sys.argv) > 2 else 32
+PASSES = 8
+NAME = f"cornell-{RES}-mitsuba"
 MAX_DEPTH = 64  # bounces, embertrace's default
 
 try:
@@ -139,9 +142,9 @@ def main():
     stack = np.stack(passes)
     mean = stack.mean(axis=0)
     var_of_mean = stack.var(axis=0, ddof=1) / PASSES
-    mi.Bitmap(mean.astype(np.float32)).write(os.path.join(OUT, "cornell-32-mitsuba.exr"))
+    mi.Bitmap(mean.astype(np.float32)).write(os.path.join(OUT, f"{NAME}.exr"))
     mi.Bitmap(var_of_mean.astype(np.float32)).write(
-        os.path.join(OUT, "cornell-32-mitsuba-var.exr"))
+        os.path.join(OUT, f"{NAME}-var.exr"))
     n = RES * RES
     info = {
         "generator": "scripts/mitsuba_cornell_reference.py",
@@ -153,7 +156,7 @@ def main():
         "image_mean_standard_error_rgb":
             [float(x) for x in np.sqrt(var_of_mean.reshape(-1, 3).sum(axis=0)) / n],
     }
-    with open(os.path.join(OUT, "cornell-32-mitsuba.json"), "w") as out:
+    with open(os.path.join(OUT, f"{NAME}.json"), "w") as out:
         json.dump(info, out, indent=1)
         out.write("\n")
     print(json.dumps(info, indent=1))

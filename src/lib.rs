@@ -59,6 +59,7 @@ pub mod bsdf;
 pub mod build_info;
 pub mod camera;
 pub mod commands;
+pub mod denoise;
 pub mod farm;
 pub mod film;
 pub mod image;

@@ -2,6 +2,7 @@
 //! ([`report`]), sample maps, variance, and the farm's parts (shards, crops,
 //! checkpoints).
 
+mod finish;
 pub mod report;
 
 use super::{BuildArgs, check_exr, write_json, write_variance};
@@ -147,6 +148,19 @@ pub struct RenderArgs {
     /// for a denoiser (.exr).
     #[arg(long, value_name = "FILE")]
     normal: Option<PathBuf>,
+    /// Denoise the image with Intel Open Image Denoise (the RT filter, HDR,
+    /// with the albedo and normal as auxiliary images): -o gets the denoised
+    /// image. Needs a build with `--features denoise`.
+    #[arg(long)]
+    denoise: bool,
+    /// With --denoise, also write the image as rendered, before denoising.
+    #[arg(long, value_name = "FILE")]
+    noisy: Option<PathBuf>,
+    /// Write one layered OpenEXR file: the image (R, G, B), then albedo,
+    /// normal (world space, X Y Z), depth (distance along the camera ray,
+    /// Z), position (world space) and variance (of each pixel's mean).
+    #[arg(long, value_name = "FILE")]
+    aovs: Option<PathBuf>,
     /// Scale every sample down so that no component exceeds MAX (biased:
     /// the report states the energy removed) [default: no clamp].
     #[arg(long, value_name = "MAX", allow_negative_numbers = true)]
@@ -223,6 +237,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
         ("--aov", args.aov.as_ref()),
         ("--albedo", args.albedo.as_ref()),
         ("--normal", args.normal.as_ref()),
+        ("--noisy", args.noisy.as_ref()),
+        ("--aovs", args.aovs.as_ref()),
         ("--sample-map", args.sample_map.as_ref()),
         ("--convergence", args.convergence.as_ref()),
         ("--checkpoint", args.checkpoint.as_ref()),
@@ -326,6 +342,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
             check_exr(c, "--checkpoint: a checkpoint is an accumulation file")?;
         }
     }
+    finish::check(&args, farm)?;
     if let Some(v) = &args.variance {
         check_exr(v, "--variance")?;
     }
@@ -630,26 +647,32 @@ pub fn run(args: RenderArgs) -> Result<()> {
     if let Some(p) = &args.aov {
         write_bad_sample_map(p, w, h, &bad.per_pixel)?;
     }
-    if args.albedo.is_some() || args.normal.is_some() {
-        let aux = crate::render::render_auxiliary(&tracer, &camera, resolution, spp, seed);
-        let plain = OutputOptions {
-            exposure: 0.0,
-            metadata: Vec::new(),
-        };
-        if let Some(p) = &args.albedo {
-            image::write_rgb(p, w, h, &aux.albedo, &plain)?;
-        }
-        if let Some(p) = &args.normal {
-            image::write_rgb(p, w, h, &aux.normal, &plain)?;
-        }
+    let finished = finish::run(
+        &args,
+        &finish::Sources {
+            tracer: &tracer,
+            camera: &camera,
+            resolution,
+            space: crate::sampler::SampleSpace::new(args.sampler, seed, resolution, spp),
+            progressive,
+            spp,
+            seed,
+        },
+        &out.film,
+    )?;
+    report.auxiliary_seconds = finished.auxiliary_seconds;
+    report.denoise_seconds = finished.denoise_seconds;
+    if let Some(t) = finished.denoise_seconds {
+        say(&format!("denoised in {t:.2} s (Intel Open Image Denoise)"));
     }
     let options = OutputOptions {
         exposure: args.exposure,
         metadata: report.metadata(),
     };
-    match &part_provenance {
-        Some(p) => farm::write_accumulation(&output, &out.film, p)?,
-        None => image::write_image(&output, &out.film, &options)?,
+    match (&part_provenance, &finished.denoised) {
+        (Some(p), _) => farm::write_accumulation(&output, &out.film, p)?,
+        (None, Some(d)) => image::write_rgb(&output, w, h, d, &options)?,
+        (None, None) => image::write_image(&output, &out.film, &options)?,
     }
     if let Some(path) = &args.variance {
         write_variance(path, &out.film)?;

@@ -106,6 +106,13 @@ pub struct RenderReport {
     /// (absent for a fixed-spp render).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub progressive: Option<ProgressiveReport>,
+    /// Seconds spent rendering the auxiliary images (`--albedo`,
+    /// `--normal`, `--aovs`, `--denoise`; absent without them).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auxiliary_seconds: Option<f64>,
+    /// Seconds the denoiser took (`--denoise`; absent without it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub denoise_seconds: Option<f64>,
 }
 
 /// What a progressive render (`--time-limit`, `--target-error`, `-a`,
@@ -207,6 +214,8 @@ impl RenderReport {
                 }
             }),
             progressive: None,
+            auxiliary_seconds: None,
+            denoise_seconds: None,
         }
     }
 
