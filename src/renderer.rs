@@ -15,7 +15,7 @@ use crate::image::{self, OutputOptions};
 use crate::integrator::{PathTracer, RayCounts};
 use crate::plan::{Plan, PlanMode};
 use crate::render::{self, RenderSettings};
-use crate::sampler::SamplerKind;
+use crate::sampler::{SampleSpace, SamplerKind};
 use crate::scene::Scene;
 use crate::settings::{self, Flags};
 use std::path::Path;
@@ -30,6 +30,7 @@ pub struct Renderer<'s> {
     backend: Backend,
     sampler: SamplerKind,
     flags: Flags,
+    denoise: bool,
 }
 
 impl<'s> Renderer<'s> {
@@ -41,7 +42,17 @@ impl<'s> Renderer<'s> {
             backend: Backend::default_backend(),
             sampler: SamplerKind::default(),
             flags: Flags::default(),
+            denoise: false,
         }
+    }
+
+    /// Denoise the image at the end ([`crate::denoise::denoise_film`]):
+    /// [`Rendered::pixels`] and [`Rendered::write`] then give the denoised
+    /// image. Rendering fails with a settings error in a build without the
+    /// `denoise` feature.
+    pub fn denoise(mut self, denoise: bool) -> Self {
+        self.denoise = denoise;
+        self
     }
 
     /// The ray-query backend.
@@ -107,6 +118,9 @@ impl<'s> Renderer<'s> {
     ) -> Result<Rendered> {
         let scene = self.scene;
         let s = settings::resolve(&scene.render, scene.resolution, &self.flags)?;
+        if self.denoise && !crate::denoise::AVAILABLE {
+            return Err(Error::Settings(crate::denoise::HOW_TO_GET.to_string()));
+        }
         let accel = accel::build(self.backend, scene.soup(), AccelOptions::default())?;
         let kernel = Plan::new(scene, &s.integrator).kernel_for(PlanMode::Specialised);
         let tracer = PathTracer::with_kernel(scene, accel.as_ref(), s.integrator, kernel);
@@ -150,10 +164,22 @@ impl<'s> Renderer<'s> {
                 seconds: start.elapsed().as_secs_f64(),
             });
         }
+        let seconds = start.elapsed().as_secs_f64();
+        let denoised = if self.denoise {
+            let space = SampleSpace::new(self.sampler, s.seed, s.resolution, s.spp);
+            let samples = vec![s.spp; w as usize * h as usize];
+            let aux =
+                render::render_auxiliary(&tracer, &camera, s.resolution, &space, &samples, s.seed);
+            let prefilter = crate::denoise::lens_makes_aux_noisy(&tracer, &camera);
+            Some(crate::denoise::denoise_film(&film, &aux, prefilter)?)
+        } else {
+            None
+        };
         Ok(Rendered {
             film,
             rays,
-            seconds: start.elapsed().as_secs_f64(),
+            seconds,
+            denoised,
         })
     }
 }
@@ -181,23 +207,40 @@ pub struct Rendered {
     pub film: Film,
     /// Rays traced, by kind.
     pub rays: RayCounts,
-    /// Wall-clock seconds spent rendering.
+    /// Wall-clock seconds spent rendering (before any denoising).
     pub seconds: f64,
+    /// The denoised image ([`Renderer::denoise`]), linear RGB row by row.
+    pub denoised: Option<Vec<[f64; 3]>>,
 }
 
 impl Rendered {
-    /// Write the image; the extension picks the format (`.png`: 8-bit
-    /// sRGB, `.exr` and `.pfm`: linear `f32`), written atomically.
+    /// Write the image (the denoised one when there is one); the extension
+    /// picks the format (`.png`: 8-bit sRGB, `.exr` and `.pfm`: linear
+    /// `f32`), written atomically.
     pub fn write(&self, path: &Path) -> Result<()> {
-        image::write_image(path, &self.film, &OutputOptions::default())
+        match &self.denoised {
+            Some(d) => image::write_rgb(
+                path,
+                self.film.width(),
+                self.film.height(),
+                d,
+                &OutputOptions::default(),
+            ),
+            None => image::write_image(path, &self.film, &OutputOptions::default()),
+        }
     }
 
-    /// The image as linear RGB, row by row from the top left.
+    /// The image (the denoised one when there is one) as linear RGB, row by
+    /// row from the top left.
     pub fn pixels(&self) -> Vec<[f32; 3]> {
-        self.film
-            .to_rgb_f32()
-            .chunks_exact(3)
-            .map(|c| [c[0], c[1], c[2]])
-            .collect()
+        match &self.denoised {
+            Some(d) => d.iter().map(|p| p.map(|v| v as f32)).collect(),
+            None => self
+                .film
+                .to_rgb_f32()
+                .chunks_exact(3)
+                .map(|c| [c[0], c[1], c[2]])
+                .collect(),
+        }
     }
 }

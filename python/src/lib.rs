@@ -27,9 +27,7 @@ use embertrace::settings::{self, Flags};
 use embertrace::{Backend, Error, PassProgress, Renderer, Scene as CoreScene};
 use numpy::{PyArray1, PyArray3, PyArrayMethods};
 use pyo3::create_exception;
-use pyo3::exceptions::{
-    PyKeyboardInterrupt, PyNotImplementedError, PyOSError, PyRuntimeError, PyValueError,
-};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
@@ -81,6 +79,7 @@ struct Options {
     accel: String,
     max_depth: Option<u32>,
     passes: Option<u32>,
+    denoise: bool,
 }
 
 #[pymethods]
@@ -134,11 +133,6 @@ impl Scene {
         passes: Option<u32>,
         progress: Option<Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray3<f32>>> {
-        if denoise {
-            return Err(PyNotImplementedError::new_err(
-                "denoise=True: this build has no denoiser yet; render with denoise=False",
-            ));
-        }
         let options = Options {
             spp,
             resolution,
@@ -147,6 +141,7 @@ impl Scene {
             accel: accel.to_string(),
             max_depth,
             passes,
+            denoise,
         };
         render_scene(py, &self.inner, &options, progress.as_ref())
     }
@@ -175,7 +170,8 @@ fn render_scene<'py>(
     let mut renderer = Renderer::new(scene)
         .backend(backend)
         .seed(o.seed)
-        .threads(o.threads);
+        .threads(o.threads)
+        .denoise(o.denoise);
     if let Some(spp) = o.spp {
         renderer = renderer.spp(spp);
     }
@@ -230,7 +226,8 @@ fn render_scene<'py>(
         .map_err(|_| PyRuntimeError::new_err("the render thread panicked"))?
         .map_err(to_py)?;
     let [w, h] = [rendered.film.width(), rendered.film.height()];
-    PyArray1::from_vec(py, rendered.film.to_rgb_f32()).reshape([h as usize, w as usize, 3])
+    let rgb: Vec<f32> = rendered.pixels().into_iter().flatten().collect();
+    PyArray1::from_vec(py, rgb).reshape([h as usize, w as usize, 3])
 }
 
 /// Call `progress` with one pass's report, as a dict.
@@ -260,7 +257,8 @@ fn load(py: Python<'_>, path: PathBuf, camera: Option<String>) -> PyResult<Scene
 /// NumPy array of shape `(height, width, 3)`, float32, linear RGB, rows from
 /// the top. `spp`, `resolution` (`(width, height)`) and `max_depth` default
 /// to the scene's; `threads=0` uses every core; `accel` is `"embree"` or
-/// `"bvh"`; `passes` (default 64) splits the samples, and `progress` is
+/// `"bvh"`; `denoise` runs Intel Open Image Denoise at the end (a module built
+/// with the `denoise` feature); `passes` (default 64) splits the samples, and `progress` is
 /// called after each pass with a dict (`pass`, `passes`, `samples`, `spp`,
 /// `seconds`). Ctrl-C stops the render after the pass under way.
 #[pyfunction]

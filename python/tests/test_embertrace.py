@@ -171,8 +171,27 @@ def test_bad_arguments_are_value_errors():
         embertrace.render(CORNELL, spp=1, accel="octree")
     with pytest.raises(ValueError):
         embertrace.render(CORNELL, spp=1, passes=0)
-    with pytest.raises(NotImplementedError):
-        embertrace.render(CORNELL, spp=1, denoise=True)
+
+
+DENOISE = "denoise" in embertrace.build_info()["features"].split(",")
+
+
+@pytest.mark.skipif(DENOISE, reason="this module has the denoiser")
+def test_denoise_without_the_feature_says_how_to_get_it():
+    with pytest.raises(ValueError, match="Open Image Denoise"):
+        embertrace.render(CORNELL, spp=1, resolution=(8, 8), denoise=True)
+
+
+@pytest.mark.skipif(not DENOISE, reason="a module built without --features denoise")
+def test_denoise_smooths_the_image_and_keeps_its_mean():
+    kwargs = dict(spp=4, resolution=(64, 64), seed=2)
+    noisy = embertrace.render(CORNELL, **kwargs)
+    clean = embertrace.render(CORNELL, denoise=True, **kwargs)
+    assert clean.shape == noisy.shape and clean.dtype == np.float32
+    assert abs(clean.mean() / noisy.mean() - 1) < 0.02
+    # neighbouring pixels of the back wall differ far less once denoised
+    wall = lambda img: np.abs(np.diff(img[24:40, 24:40, 1], axis=1)).mean()
+    assert wall(clean) < wall(noisy) / 3
 
 
 def test_build_info_names_the_version_and_backend():

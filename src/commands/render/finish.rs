@@ -107,35 +107,10 @@ pub(super) fn run(args: &RenderArgs, from: &Sources<'_>, film: &Film) -> Result<
     }
     let means: Vec<[f64; 3]> = film.pixels().iter().map(|p| p.mean_f64()).collect();
     if args.denoise {
-        // the denoiser sees what the first hit reflects (the image less
-        // the emission its own rays saw), and the emission goes back on
-        // after, re-estimated at emitters' edges (see `crate::denoise`)
-        let reflected: Vec<[f64; 3]> = means
-            .iter()
-            .zip(&aux.emitted)
-            .map(|(m, e)| std::array::from_fn(|c| (m[c] - e[c]).max(0.0)))
-            .collect();
-        let color = AuxiliaryImages::flat_f32(&reflected);
-        let albedo = AuxiliaryImages::flat_f32(&aux.albedo);
-        let normal = AuxiliaryImages::flat_f32(&aux.normal);
         let t = Instant::now();
-        let out = denoise::denoise(&denoise::Inputs {
-            width: w,
-            height: h,
-            color: &color,
-            albedo: &albedo,
-            normal: &normal,
-            // a lens with an aperture makes each auxiliary ray sample the
-            // lens: the images are noisy (see `crate::denoise`)
-            prefilter: from.tracer.kernel().lens && !from.camera.lens().is_pinhole(),
-        })?;
+        let prefilter = denoise::lens_makes_aux_noisy(from.tracer, from.camera);
+        done.denoised = Some(denoise::denoise_film(film, &aux, prefilter)?);
         done.denoise_seconds = Some(t.elapsed().as_secs_f64());
-        done.denoised = Some(
-            out.chunks_exact(3)
-                .zip(&aux.emitted_fine)
-                .map(|(c, e)| std::array::from_fn(|k| c[k].max(0.0) as f64 + e[k]))
-                .collect(),
-        );
         if let Some(p) = &args.noisy {
             image::write_image(p, film, &plain)?;
         }
