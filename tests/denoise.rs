@@ -302,3 +302,70 @@ fn denoising_repeats_bit_for_bit_whatever_the_thread_count() {
     assert!(images[0] == images[1], "-t 1 and -t 2 differ");
     assert!(images[1] == images[2], "two runs differ");
 }
+
+#[cfg(not(feature = "denoise"))]
+#[test]
+fn study_denoise_without_the_feature_says_how_to_get_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("study");
+    let args = [
+        "study",
+        SCENE,
+        "--out",
+        out.to_str().unwrap(),
+        "-r",
+        "8",
+        "8",
+        "-s",
+        "1",
+        "--denoise",
+    ];
+    refused(&args, &out, "--features denoise");
+}
+
+#[cfg(feature = "denoise")]
+#[test]
+fn study_denoise_adds_denoised_curves_and_the_bias_of_each_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("study");
+    let o = embertrace(&[
+        "study",
+        SCENE,
+        "--out",
+        out.to_str().unwrap(),
+        "-r",
+        "32",
+        "32",
+        "--vary",
+        "spp=4,16",
+        "--reference",
+        "tests/data/cornell-32-mitsuba.exr",
+        "--denoise",
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    for column in [
+        "mean_error",
+        "block_error",
+        "denoised_rmse",
+        "denoised_block_error",
+    ] {
+        assert!(header.contains(&column), "{column} missing from {header:?}");
+    }
+    let col = |row: &str, name: &str| -> f64 {
+        let i = header.iter().position(|h| *h == name).unwrap();
+        row.split(',').nth(i).unwrap().parse().unwrap()
+    };
+    let rows: Vec<&str> = lines.collect();
+    assert_eq!(rows.len(), 2);
+    for row in &rows {
+        // denoising a 4- or 16-spp image brings its RMSE down
+        assert!(col(row, "denoised_rmse") < col(row, "rmse"), "{row}");
+        assert!(col(row, "denoised_seconds") > col(row, "seconds"), "{row}");
+    }
+    let md = std::fs::read_to_string(out.join("study.md")).unwrap();
+    assert!(md.contains("denoised: seconds"), "{md}");
+}

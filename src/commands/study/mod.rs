@@ -1,6 +1,7 @@
 //! `embertrace study`: a scene rendered under several settings, error
 //! against time, a contact sheet and the Pareto front ([`runs`], [`plot`]).
 
+pub mod denoised;
 pub mod plot;
 pub mod runs;
 
@@ -68,6 +69,12 @@ pub struct StudyArgs {
     light_sampler: Option<LightSampler>,
     #[command(flatten)]
     build: BuildArgs,
+    /// Also denoise every pass (Intel Open Image Denoise, a build with
+    /// `--features denoise`): denoised error-against-time curves beside the
+    /// noisy ones, and each final image's bias (mean error, 8 x 8 block
+    /// error).
+    #[arg(long)]
+    denoise: bool,
 }
 
 /// Run `embertrace study`.
@@ -93,6 +100,9 @@ pub fn run(args: StudyArgs) -> Result<()> {
         &format!("--reference-spp {}", args.reference_spp),
     )
     .map_err(Error::Settings)?;
+    if args.denoise && !crate::denoise::AVAILABLE {
+        return Err(Error::Settings(crate::denoise::HOW_TO_GET.to_string()));
+    }
     let scene = Scene::load(&args.scene)?;
     let flags = Flags {
         spp: args.spp,
@@ -121,6 +131,7 @@ pub fn run(args: StudyArgs) -> Result<()> {
         reference_spp: args.reference_spp,
         base,
         build: args.build.options(),
+        denoise: args.denoise,
     };
     let rows = runs::run(&args.scene, &scene, &opts, &log::note)?;
     // -q: the files alone, no table on stdout either

@@ -18,6 +18,7 @@
 //! Outputs in `DIR`: `study.csv`, `error-vs-time.png`, `contact-sheet.png`,
 //! `study.md`, and each setting's final image in `renders/`.
 
+use super::denoised::{DenoisedPass, block_error, denoise_pass, mean_error};
 use super::plot::{Series, contact_sheet, log_log_plot};
 use crate::accel::{self, AccelOptions, Accelerator, Backend};
 use crate::commands::diff::{Image, compare};
@@ -27,7 +28,7 @@ use crate::image::{self, OutputOptions, write_file_atomically};
 use crate::integrator::PathTracer;
 use crate::progressive::{Budget, render_progressive};
 use crate::render::RenderSettings;
-use crate::sampler::SamplerKind;
+use crate::sampler::{SampleSpace, SamplerKind};
 use crate::scene::Scene;
 use crate::settings;
 use crate::settings::{DirectStrategy, IntegratorSettings, Roulette};
@@ -166,6 +167,8 @@ pub struct StudyOptions {
     pub base: RunSettings,
     /// How backends are built.
     pub build: AccelOptions,
+    /// Also denoise every pass (`--denoise`, [`super::denoised`]).
+    pub denoise: bool,
 }
 
 /// Parse `NAME=V1,V2,...`.
@@ -210,6 +213,31 @@ pub struct StudyRow {
     pub curve: Vec<(f64, f64)>,
     /// Whether no other setting has both less time and less error.
     pub pareto: bool,
+    /// [`super::denoised::mean_error`] of the final image.
+    pub mean_error: f64,
+    /// [`super::denoised::block_error`] of the final image.
+    pub block_error: f64,
+    /// The same figures for the denoised image (`--denoise`).
+    pub denoised: Option<DenoisedRow>,
+}
+
+/// A setting's figures once denoised.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DenoisedRow {
+    /// Seconds of rendering, auxiliary images and denoising.
+    pub seconds: f64,
+    /// RMSE against the reference.
+    pub rmse: f64,
+    /// Relative MSE against the reference.
+    pub rel_mse: f64,
+    /// `1 / (rel_mse * seconds)`.
+    pub efficiency: f64,
+    /// [`super::denoised::mean_error`].
+    pub mean_error: f64,
+    /// [`super::denoised::block_error`].
+    pub block_error: f64,
+    /// `(seconds, rel_mse)` after each pass, denoised.
+    pub curve: Vec<(f64, f64)>,
 }
 
 /// Every combination of the varied values applied to `base`, labelled.
@@ -260,6 +288,10 @@ pub fn mark_pareto(rows: &mut [StudyRow]) {
     }
 }
 
+/// What the study's renderer calls after each pass: the render's seconds
+/// so far, its film, and with `--denoise` the pass denoised.
+type OnPass<'a> = dyn FnMut(f64, &Film, Option<DenoisedPass>) -> Result<()> + 'a;
+
 struct Renderer<'s> {
     scene: &'s Scene,
     build: AccelOptions,
@@ -275,16 +307,19 @@ impl Renderer<'_> {
         Ok(self.accels[b.name()].as_ref())
     }
 
-    /// Render `s` progressively; `on_pass` sees each pass's time and film.
+    /// Render `s` progressively; `on_pass` sees each pass's time and film,
+    /// and with `denoise` the pass denoised.
     fn render(
         &mut self,
         s: &RunSettings,
-        on_pass: &mut dyn FnMut(f64, &Film) -> Result<()>,
+        denoise: bool,
+        on_pass: &mut OnPass<'_>,
     ) -> Result<(Film, f64, u64)> {
         let scene = self.scene;
         let accel = self.accel(s.backend)?;
         let tracer = PathTracer::new(scene, accel, s.integrator);
         let camera = scene.make_camera(s.resolution[0], s.resolution[1]);
+        let space = SampleSpace::new(s.sampler, s.seed, s.resolution, s.spp);
         let rs = RenderSettings {
             total_spp: None,
             resolution: s.resolution,
@@ -300,10 +335,22 @@ impl Renderer<'_> {
             max_spp: s.spp,
             ..Budget::default()
         };
+        // the render's clock runs through the callbacks: what denoising
+        // took is taken back off, so the times are the render's alone
+        let mut denoising = 0.0;
         let out = render_progressive(&tracer, &camera, &rs, &budget, &mut |p, f| {
-            on_pass(p.seconds, f)
+            let rendering = p.seconds - denoising;
+            let denoised = denoise
+                .then(|| denoise_pass(&tracer, &camera, &space, s.seed, f))
+                .transpose()?;
+            denoising += denoised.as_ref().map_or(0.0, |d| d.seconds);
+            on_pass(rendering, f, denoised)
         })?;
-        Ok((out.out.film, out.out.seconds, out.out.rays.total()))
+        Ok((
+            out.out.film,
+            out.out.seconds - denoising,
+            out.out.rays.total(),
+        ))
     }
 }
 
@@ -372,7 +419,7 @@ pub fn run(
                     "rendering the reference: {} spp, seed {}",
                     base.spp, base.seed
                 ));
-                let (film, secs, _) = renderer.render(&base, &mut |_, _| Ok(()))?;
+                let (film, secs, _) = renderer.render(&base, false, &mut |_, _, _| Ok(()))?;
                 let meta = vec![
                     ("embertrace.study_key".to_string(), key),
                     ("embertrace.spp".to_string(), base.spp.to_string()),
@@ -408,12 +455,32 @@ pub fn run(
     for (k, (label, s)) in settings.iter().enumerate() {
         say(&format!("[{}/{}] {label}", k + 1, settings.len()));
         let mut curve = Vec::new();
-        let (film, seconds, rays) = renderer.render(s, &mut |t, f| {
+        let mut denoised_curve = Vec::new();
+        let mut last_denoised = None;
+        let (film, seconds, rays) = renderer.render(s, opts.denoise, &mut |t, f, dn| {
             let d = compare(&image_of(f), &reference, scene_path, &ref_path)?;
             curve.push((t, d.rel_mse));
+            if let Some(dn) = dn {
+                let dd = compare(&dn.image, &reference, scene_path, &ref_path)?;
+                denoised_curve.push((t + dn.seconds, dd.rel_mse));
+                last_denoised = Some((dn, dd, t));
+            }
             Ok(())
         })?;
-        let d = compare(&image_of(&film), &reference, scene_path, &ref_path)?;
+        let image = image_of(&film);
+        let d = compare(&image, &reference, scene_path, &ref_path)?;
+        let denoised = last_denoised.map(|(dn, dd, t)| {
+            let secs = t + dn.seconds;
+            DenoisedRow {
+                seconds: secs,
+                rmse: dd.rmse,
+                rel_mse: dd.rel_mse,
+                efficiency: 1.0 / (dd.rel_mse * secs),
+                mean_error: mean_error(&dn.image, &reference),
+                block_error: block_error(&dn.image, &reference),
+                curve: denoised_curve,
+            }
+        });
         let name = format!("{:02}.exr", k + 1);
         image::write_image(
             &opts.out.join("renders").join(&name),
@@ -442,6 +509,9 @@ pub fn run(
             efficiency: 1.0 / (d.rel_mse * seconds),
             curve,
             pareto: false,
+            mean_error: mean_error(&image, &reference),
+            block_error: block_error(&image, &reference),
+            denoised,
         });
     }
     mark_pareto(&mut rows);
@@ -459,23 +529,53 @@ fn write_outputs(
     ref_path: &Path,
 ) -> Result<()> {
     let dir = &opts.out;
-    let mut csv = String::from("setting,seconds,spp,rays,rmse,rel_mse,efficiency,pareto\n");
+    let mut csv = String::from(
+        "setting,seconds,spp,rays,rmse,rel_mse,efficiency,pareto,mean_error,block_error",
+    );
+    if opts.denoise {
+        csv += ",denoised_seconds,denoised_rmse,denoised_rel_mse,denoised_efficiency,\
+                denoised_mean_error,denoised_block_error";
+    }
+    csv.push('\n');
     for r in rows {
-        let _ = writeln!(
+        let _ = write!(
             csv,
-            "\"{}\",{:.6e},{},{},{:.6e},{:.6e},{:.6e},{}",
-            r.label, r.seconds, r.spp, r.rays, r.rmse, r.rel_mse, r.efficiency, r.pareto
+            "\"{}\",{:.6e},{},{},{:.6e},{:.6e},{:.6e},{},{:.6e},{:.6e}",
+            r.label,
+            r.seconds,
+            r.spp,
+            r.rays,
+            r.rmse,
+            r.rel_mse,
+            r.efficiency,
+            r.pareto,
+            r.mean_error,
+            r.block_error
         );
+        if let Some(d) = &r.denoised {
+            let _ = write!(
+                csv,
+                ",{:.6e},{:.6e},{:.6e},{:.6e},{:.6e},{:.6e}",
+                d.seconds, d.rmse, d.rel_mse, d.efficiency, d.mean_error, d.block_error
+            );
+        }
+        csv.push('\n');
     }
     write_file_atomically(&dir.join("study.csv"), csv.as_bytes())?;
 
-    let series: Vec<Series> = rows
+    let mut series: Vec<Series> = rows
         .iter()
         .map(|r| Series {
             label: r.label.clone(),
             points: r.curve.clone(),
         })
         .collect();
+    series.extend(rows.iter().filter_map(|r| {
+        r.denoised.as_ref().map(|d| Series {
+            label: format!("{} denoised", r.label).trim().to_string(),
+            points: d.curve.clone(),
+        })
+    }));
     let title = format!(
         "{}: relative MSE against time",
         scene_path.file_stem().unwrap_or_default().to_string_lossy()
@@ -547,6 +647,34 @@ fn write_outputs(
         );
     }
     md += "\nEfficiency is `1 / (relative MSE x seconds)`: higher is better.\n\n";
+    md += "Bias: the mean error is the image's mean over the reference's, less 1; the \
+           block error is the RMS difference of 8 x 8 block means relative to the \
+           reference's RMS (noise averages out of it, bias does not).\n\n";
+    md += "| setting | mean error | block error |";
+    if opts.denoise {
+        md += " denoised: seconds | RMSE | relative MSE | efficiency | mean error | block error |";
+    }
+    md += "\n|---|---:|---:|";
+    if opts.denoise {
+        md += "---:|---:|---:|---:|---:|---:|";
+    }
+    md.push('\n');
+    for r in rows {
+        let _ = write!(
+            md,
+            "| {} | {:+.3e} | {:.3e} |",
+            r.label, r.mean_error, r.block_error
+        );
+        if let Some(d) = &r.denoised {
+            let _ = write!(
+                md,
+                " {:.3} | {:.3e} | {:.3e} | {:.3e} | {:+.3e} | {:.3e} |",
+                d.seconds, d.rmse, d.rel_mse, d.efficiency, d.mean_error, d.block_error
+            );
+        }
+        md.push('\n');
+    }
+    md.push('\n');
     md += "![error against time](error-vs-time.png)\n\n![contact sheet](contact-sheet.png)\n\n";
     md += "## Pareto front\n\nNo other setting has both less time and less error:\n\n";
     let mut front: Vec<&StudyRow> = rows.iter().filter(|r| r.pareto).collect();
@@ -629,6 +757,9 @@ mod tests {
             efficiency: 0.0,
             curve: Vec::new(),
             pareto: false,
+            mean_error: 0.0,
+            block_error: 0.0,
+            denoised: None,
         };
         let mut rows = vec![
             row(1.0, 0.5),
