@@ -16,21 +16,13 @@ set -euo pipefail
 version=4.4.0
 dir="${EMBREE4_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/embertrace/embree4-$version}"
 if [ ! -e "$dir/lib/libembree4.so" ]; then
-  if ! python3 -m pip --version >/dev/null 2>&1; then
-    sudo=""
-    [ "$(id -u)" -eq 0 ] || sudo="sudo"
-    echo "installing python3-pip (apt-get), to download the embreex wheel" >&2
-    $sudo apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq python3-pip >/dev/null
-  fi
   tmp="$(mktemp -d)"
   trap 'rm -rf "$tmp"' EXIT
+  . "$(dirname "$0")/unpack-wheel.sh"
   # Any CPython's wheel carries the same library: name one, so that the
   # download does not depend on the Python that runs pip.
-  python3 -m pip download -q --no-deps --only-binary=:all: \
-    --python-version 3.11 --platform manylinux_2_28_x86_64 \
-    "embreex==$version" -d "$tmp" >&2
-  python3 -m zipfile -e "$tmp"/embreex-"$version"-*.whl "$tmp/wheel"
+  unpack_wheel "embreex==$version" "$tmp/wheel" \
+    --python-version 3.11 --platform manylinux_2_28_x86_64
   mkdir -p "$dir/lib"
   cp "$tmp"/wheel/embreex.libs/*.so* "$dir/lib/"
   lib="$(cd "$dir/lib" && ls libembree4-*.so.4 | head -1)"

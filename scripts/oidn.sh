@@ -20,18 +20,10 @@ set -euo pipefail
 version=2.5.1
 dir="${OIDN_CACHE:-${XDG_CACHE_HOME:-$HOME/.cache}/embertrace/oidn-$version}"
 if [ ! -e "$dir/lib/libOpenImageDenoise.so" ]; then
-  if ! python3 -m pip --version >/dev/null 2>&1; then
-    sudo=""
-    [ "$(id -u)" -eq 0 ] || sudo="sudo"
-    echo "installing python3-pip (apt-get), to download the pyoidn wheel" >&2
-    $sudo apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq python3-pip >/dev/null
-  fi
   tmp="$(mktemp -d)"
   trap 'rm -rf "$tmp"' EXIT
-  python3 -m pip download -q --no-deps --only-binary=:all: \
-    --platform manylinux2014_x86_64 "pyoidn==$version.0" -d "$tmp" >&2
-  python3 -m zipfile -e "$tmp"/pyoidn-"$version".0-*.whl "$tmp/wheel"
+  . "$(dirname "$0")/unpack-wheel.sh"
+  unpack_wheel "pyoidn==$version.0" "$tmp/wheel" --platform manylinux2014_x86_64
   lib="$tmp/wheel/pyoidn/oidn/lib"
   mkdir -p "$dir/lib.partial"
   for f in "$lib"/libOpenImageDenoise.so* "$lib"/libOpenImageDenoise_core.so* \

@@ -4,20 +4,11 @@
 
 use embertrace::image::read_exr;
 use std::path::Path;
-use std::process::{Command, Output};
 
 const SCENE: &str = "scenes/cornell-box.toml";
 
-fn embertrace(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_embertrace"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+mod common;
+use common::{run_here as embertrace, stderr_of as stderr};
 
 /// A refused command line: exit 1, one line, and `out` not written.
 fn refused(args: &[&str], out: &Path, needle: &str) {

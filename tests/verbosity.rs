@@ -2,20 +2,11 @@
 //! (`embertrace::log`): `-q` leaves warnings and errors, `-v` adds details.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
 const SCENE: &str = "scenes/cornell-box.toml";
 
-fn embertrace(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_embertrace"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+mod common;
+use common::{run_here as embertrace, stderr_of as stderr};
 
 const COMMANDS: [&str; 8] = [
     "render", "bench", "parity", "diff", "study", "plan", "convert", "merge",

@@ -392,6 +392,16 @@ pub fn run(dir: &Path, args: &[&str]) -> std::process::Output {
         .expect("embertrace runs")
 }
 
+/// The embertrace binary run in the repository's root with `args`.
+pub fn run_here(args: &[&str]) -> std::process::Output {
+    run(Path::new(env!("CARGO_MANIFEST_DIR")), args)
+}
+
+/// A command's standard error, as text.
+pub fn stderr_of(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
 /// One triangle, as an OBJ file.
 pub const GOOD_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 
