@@ -360,3 +360,88 @@ fn study_denoise_adds_denoised_curves_and_the_bias_of_each_image() {
     let md = std::fs::read_to_string(out.join("study.md")).unwrap();
     assert!(md.contains("denoised: seconds"), "{md}");
 }
+
+#[test]
+fn merge_denoise_needs_the_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.exr");
+    let args = [
+        "merge",
+        "a.exr",
+        "b.exr",
+        "-o",
+        out.to_str().unwrap(),
+        "--denoise",
+    ];
+    refused(&args, &out, "--scene");
+}
+
+#[cfg(not(feature = "denoise"))]
+#[test]
+fn merge_denoise_without_the_feature_says_how_to_get_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.exr");
+    let o = out.to_str().unwrap();
+    let args = ["merge", "a.exr", "-o", o, "--denoise", "--scene", SCENE];
+    refused(&args, &out, "--features denoise");
+}
+
+#[cfg(feature = "denoise")]
+#[test]
+fn merge_denoise_of_shards_is_render_denoise_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let common = [
+        "render", SCENE, "-r", "40", "24", "-s", "8", "--seed", "5", "-q",
+    ];
+    for k in 1..=2 {
+        let shard = format!("{k}/2");
+        let out = path(&format!("s{k}.exr"));
+        let args = [&common[..], &["--shard", &shard, "-o", &out]].concat();
+        let o = embertrace(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let one = path("one.exr");
+    let o = embertrace(&[&common[..], &["--denoise", "-o", &one]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let merged = path("merged.exr");
+    let report = path("merge.json");
+    let (s1, s2) = (path("s1.exr"), path("s2.exr"));
+    let o = embertrace(&[
+        "merge",
+        &s1,
+        &s2,
+        "-o",
+        &merged,
+        "--denoise",
+        "--scene",
+        SCENE,
+        "--report",
+        &report,
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let a = read_exr(Path::new(&one)).unwrap().2;
+    let b = read_exr(Path::new(&merged)).unwrap().2;
+    assert!(a == b, "merge --denoise differs from render --denoise");
+    let r = std::fs::read_to_string(&report).unwrap();
+    assert!(r.contains("\"denoise_seconds\""), "{r}");
+    // another scene is refused, naming it
+    let other = "scenes/materials.toml";
+    let o = embertrace(&[
+        "merge",
+        &s1,
+        &s2,
+        "-o",
+        &path("x.exr"),
+        "--denoise",
+        "--scene",
+        other,
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("not the scene the parts were rendered from"),
+        "{}",
+        stderr(&o)
+    );
+}

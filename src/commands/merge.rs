@@ -43,6 +43,15 @@ pub struct MergeArgs {
     /// agree.
     #[arg(long)]
     allow_mixed_builds: bool,
+    /// Denoise the merged image with Intel Open Image Denoise (a build with
+    /// `--features denoise`): the auxiliary images are traced anew along
+    /// the render's camera rays, from the scene (--scene), which must be
+    /// the one the parts were rendered from.
+    #[arg(long, requires = "scene", conflicts_with = "accumulation")]
+    denoise: bool,
+    /// The scene the parts were rendered from (for --denoise).
+    #[arg(long, value_name = "FILE")]
+    scene: Option<PathBuf>,
 }
 
 /// Run `embertrace merge`.
@@ -71,8 +80,22 @@ pub fn run(args: MergeArgs) -> Result<()> {
     if let Some(r) = &args.report {
         crate::commands::render::report::check_report_path(r)?;
     }
+    if args.denoise && !crate::denoise::AVAILABLE {
+        return Err(crate::error::Error::Settings(
+            crate::denoise::HOW_TO_GET.to_string(),
+        ));
+    }
     let (merged, prov, mut report) =
         farm::merge(&args.parts, args.accumulation, args.allow_mixed_builds)?;
+    let denoised = match (&args.scene, args.denoise) {
+        (Some(scene), true) => {
+            let (image, aux_seconds, denoise_seconds) = denoise_merged(scene, &merged, &prov)?;
+            report.auxiliary_seconds = Some(aux_seconds);
+            report.denoise_seconds = Some(denoise_seconds);
+            Some(image)
+        }
+        _ => None,
+    };
     if args.accumulation {
         farm::write_accumulation(&args.output, &merged, &prov)?;
     } else {
@@ -84,7 +107,12 @@ pub fn run(args: MergeArgs) -> Result<()> {
                 .filter(|(n, _)| n != "embertrace.kind")
                 .collect(),
         };
-        image::write_image(&args.output, &merged, &options)?;
+        match &denoised {
+            Some(d) => {
+                image::write_rgb(&args.output, merged.width(), merged.height(), d, &options)?
+            }
+            None => image::write_image(&args.output, &merged, &options)?,
+        }
     }
     if let Some(v) = &args.variance {
         write_variance(v, &merged)?;
@@ -104,4 +132,61 @@ pub fn run(args: MergeArgs) -> Result<()> {
         report.seconds
     ));
     Ok(())
+}
+
+/// The merged render, denoised as `render --denoise` denoises a
+/// one-process render: the auxiliary images of the scene at `scene_path`
+/// (checked against the parts' scene hash) along the render's own camera
+/// rays (its seed, sampler, samples and backend, from the provenance), then
+/// [`crate::denoise::denoise_film`]. The same bits as `render --denoise`,
+/// since the merged film is. Returns the image and the seconds the
+/// auxiliary images and the denoiser took.
+fn denoise_merged(
+    scene_path: &std::path::Path,
+    film: &crate::film::Film,
+    prov: &farm::Provenance,
+) -> Result<(Vec<[f64; 3]>, f64, f64)> {
+    use crate::error::Error;
+    let scene = crate::scene::Scene::load(scene_path)?;
+    let hash = farm::scene_hash(&scene);
+    if hash != prov.scene_hash {
+        return Err(Error::Settings(format!(
+            "merge --denoise: {} is not the scene the parts were rendered from (hash {hash:016x}, the parts say {:016x})",
+            scene_path.display(),
+            prov.scene_hash
+        )));
+    }
+    let setting = |name: &str| {
+        prov.setting(name)
+            .ok_or_else(|| Error::Settings(format!("merge --denoise: the parts record no {name}")))
+    };
+    let parse_err =
+        |name: &str, e: String| Error::Settings(format!("merge --denoise: {name}: {e}"));
+    let seed: u64 = setting("seed")?
+        .parse()
+        .map_err(|e: std::num::ParseIntError| parse_err("seed", e.to_string()))?;
+    let sampler: crate::sampler::SamplerKind = setting("sampler")?
+        .parse()
+        .map_err(|e| parse_err("sampler", e))?;
+    let backend: crate::accel::Backend = setting("backend")?
+        .parse()
+        .map_err(|e| parse_err("backend", e))?;
+    let resolution = prov
+        .resolution()
+        .ok_or_else(|| parse_err("resolution", "missing".into()))?;
+    let spp = prov
+        .spp()
+        .ok_or_else(|| parse_err("spp", "missing".into()))?;
+    let t = std::time::Instant::now();
+    let accel = crate::accel::build(backend, scene.soup(), crate::accel::AccelOptions::default())?;
+    let tracer = crate::integrator::PathTracer::new(&scene, accel.as_ref(), Default::default());
+    let camera = scene.make_camera(resolution[0], resolution[1]);
+    let space = crate::sampler::SampleSpace::new(sampler, seed, resolution, spp);
+    let samples: Vec<u32> = film.pixels().iter().map(|p| p.count as u32).collect();
+    let aux = crate::render::render_auxiliary(&tracer, &camera, resolution, &space, &samples, seed);
+    let aux_seconds = t.elapsed().as_secs_f64();
+    let t = std::time::Instant::now();
+    let prefilter = crate::denoise::lens_makes_aux_noisy(&tracer, &camera);
+    let image = crate::denoise::denoise_film(film, &aux, prefilter)?;
+    Ok((image, aux_seconds, t.elapsed().as_secs_f64()))
 }

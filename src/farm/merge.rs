@@ -41,6 +41,12 @@ pub struct MergeReport {
     pub seconds: f64,
     /// Peak resident memory of the process, bytes (Linux; 0 elsewhere).
     pub peak_memory_bytes: u64,
+    /// `merge --denoise`: seconds the auxiliary images took.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auxiliary_seconds: Option<f64>,
+    /// `merge --denoise`: seconds the denoiser took.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub denoise_seconds: Option<f64>,
 }
 
 /// A part's box in (x, y, sample) space, half-open.
@@ -242,6 +248,8 @@ pub fn merge(
         settings_hash: format!("{:016x}", prov.settings_hash()),
         seconds: start.elapsed().as_secs_f64(),
         peak_memory_bytes: peak_memory_bytes(),
+        auxiliary_seconds: None,
+        denoise_seconds: None,
     };
     Ok((film, prov, report))
 }
