@@ -33,7 +33,9 @@ use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::integrator::PathTracer;
-use crate::render::AuxiliaryImages;
+use crate::render::{AuxiliaryImages, render_auxiliary};
+use crate::sampler::SampleSpace;
+use std::time::Instant;
 
 /// What `--denoise` says when the build has no OIDN.
 pub const HOW_TO_GET: &str = "--denoise needs Intel Open Image Denoise, which this build \
@@ -86,7 +88,7 @@ impl Inputs<'_> {
 /// that smooths it turns the light's edge into a band of errors (on the
 /// Cornell box at 16 spp, RMSE 5.5e-2 against Mitsuba, twice the noisy
 /// image's, where this gives 4.8e-3; docs/guide/denoising.md).
-/// `prefilter`: see [`Inputs::prefilter`] and [`lens_makes_aux_noisy`].
+/// `prefilter`: see [`Inputs::prefilter`] and [`CameraRays::denoise`].
 pub fn denoise_film(film: &Film, aux: &AuxiliaryImages, prefilter: bool) -> Result<Vec<[f64; 3]>> {
     let reflected: Vec<[f64; 3]> = film
         .pixels()
@@ -115,10 +117,69 @@ pub fn denoise_film(film: &Film, aux: &AuxiliaryImages, prefilter: bool) -> Resu
         .collect())
 }
 
-/// Whether the auxiliary images of `tracer` through `camera` are noisy: a
-/// lens with an aperture makes each auxiliary ray sample the lens.
-pub fn lens_makes_aux_noisy(tracer: &PathTracer<'_>, camera: &Camera) -> bool {
-    tracer.kernel().lens && !camera.lens().is_pinhole()
+/// A render's camera rays, which its auxiliary images follow: what `render
+/// --denoise`, `merge --denoise`, `study --denoise` and
+/// [`crate::Renderer::denoise`] share.
+pub struct CameraRays<'r, 's> {
+    /// The render's tracer.
+    pub tracer: &'r PathTracer<'s>,
+    /// Its camera.
+    pub camera: &'r Camera,
+    /// Its sample space (sampler, seed, total samples per pixel).
+    pub space: SampleSpace,
+    /// Its seed.
+    pub seed: u64,
+}
+
+/// A render denoised, with its auxiliary images and what each step took.
+pub struct Denoised {
+    /// The denoised image, linear RGB row by row.
+    pub image: Vec<[f64; 3]>,
+    /// The auxiliary images it was denoised with.
+    pub aux: AuxiliaryImages,
+    /// Seconds the auxiliary images took.
+    pub auxiliary_seconds: f64,
+    /// Seconds the denoiser took.
+    pub denoise_seconds: f64,
+}
+
+impl CameraRays<'_, '_> {
+    /// The auxiliary images, each pixel `i` over its samples
+    /// `0..samples[i]` ([`render_auxiliary`]), and the seconds they took.
+    pub fn auxiliary(&self, resolution: [u32; 2], samples: &[u32]) -> (AuxiliaryImages, f64) {
+        let t = Instant::now();
+        let aux = render_auxiliary(
+            self.tracer,
+            self.camera,
+            resolution,
+            &self.space,
+            samples,
+            self.seed,
+        );
+        (aux, t.elapsed().as_secs_f64())
+    }
+
+    /// `film` denoised with `aux` ([`denoise_film`]; prefiltered where a lens
+    /// with an aperture makes each auxiliary ray sample the lens), and the
+    /// seconds it took.
+    pub fn denoise(&self, film: &Film, aux: &AuxiliaryImages) -> Result<(Vec<[f64; 3]>, f64)> {
+        let t = Instant::now();
+        let prefilter = self.tracer.kernel().lens && !self.camera.lens().is_pinhole();
+        let image = denoise_film(film, aux, prefilter)?;
+        Ok((image, t.elapsed().as_secs_f64()))
+    }
+
+    /// Both: `film`, whose pixel `i` took samples `0..samples[i]`, denoised.
+    pub fn denoise_render(&self, film: &Film, samples: &[u32]) -> Result<Denoised> {
+        let (aux, auxiliary_seconds) = self.auxiliary([film.width(), film.height()], samples);
+        let (image, denoise_seconds) = self.denoise(film, &aux)?;
+        Ok(Denoised {
+            image,
+            aux,
+            auxiliary_seconds,
+            denoise_seconds,
+        })
+    }
 }
 
 /// The denoised beauty, flat linear RGB.

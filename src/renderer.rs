@@ -166,12 +166,14 @@ impl<'s> Renderer<'s> {
         }
         let seconds = start.elapsed().as_secs_f64();
         let denoised = if self.denoise {
-            let space = SampleSpace::new(self.sampler, s.seed, s.resolution, s.spp);
+            let rays = crate::denoise::CameraRays {
+                tracer: &tracer,
+                camera: &camera,
+                space: SampleSpace::new(self.sampler, s.seed, s.resolution, s.spp),
+                seed: s.seed,
+            };
             let samples = vec![s.spp; w as usize * h as usize];
-            let aux =
-                render::render_auxiliary(&tracer, &camera, s.resolution, &space, &samples, s.seed);
-            let prefilter = crate::denoise::lens_makes_aux_noisy(&tracer, &camera);
-            Some(crate::denoise::denoise_film(&film, &aux, prefilter)?)
+            Some(rays.denoise_render(&film, &samples)?.image)
         } else {
             None
         };

@@ -177,16 +177,15 @@ fn denoise_merged(
     let spp = prov
         .spp()
         .ok_or_else(|| parse_err("spp", "missing".into()))?;
-    let t = std::time::Instant::now();
     let accel = crate::accel::build(backend, scene.soup(), crate::accel::AccelOptions::default())?;
     let tracer = crate::integrator::PathTracer::new(&scene, accel.as_ref(), Default::default());
-    let camera = scene.make_camera(resolution[0], resolution[1]);
-    let space = crate::sampler::SampleSpace::new(sampler, seed, resolution, spp);
+    let rays = crate::denoise::CameraRays {
+        tracer: &tracer,
+        camera: &scene.make_camera(resolution[0], resolution[1]),
+        space: crate::sampler::SampleSpace::new(sampler, seed, resolution, spp),
+        seed,
+    };
     let samples: Vec<u32> = film.pixels().iter().map(|p| p.count as u32).collect();
-    let aux = crate::render::render_auxiliary(&tracer, &camera, resolution, &space, &samples, seed);
-    let aux_seconds = t.elapsed().as_secs_f64();
-    let t = std::time::Instant::now();
-    let prefilter = crate::denoise::lens_makes_aux_noisy(&tracer, &camera);
-    let image = crate::denoise::denoise_film(film, &aux, prefilter)?;
-    Ok((image, aux_seconds, t.elapsed().as_secs_f64()))
+    let d = rays.denoise_render(film, &samples)?;
+    Ok((d.image, d.auxiliary_seconds, d.denoise_seconds))
 }

@@ -863,11 +863,7 @@ impl<'a> PathTracer<'a> {
             }
         };
         for _ in 0..super::AUX_DELTA_CHAIN {
-            let found = match self.alpha {
-                None => self.accel.intersect(&ray),
-                Some(alpha) => self.accel.intersect_masked(&ray, alpha),
-            };
-            let Some(hit) = found else {
+            let Some(hit) = self.closest_hit(&ray) else {
                 let env = self.lights.environment(ray.d);
                 emitted.get_or_insert(env);
                 return aux(env.clamp(Vec3::ZERO, Vec3::ONE), first, emitted);
@@ -897,13 +893,18 @@ impl<'a> PathTracer<'a> {
     /// The zero-bounce term of camera ray `ray`: what the first hit emits
     /// towards it, or the environment where it escapes.
     pub(super) fn first_emission_value(&self, ray: &Ray) -> Vec3 {
-        let found = match self.alpha {
-            None => self.accel.intersect(ray),
-            Some(alpha) => self.accel.intersect_masked(ray, alpha),
-        };
-        match found {
+        match self.closest_hit(ray) {
             None => self.lights.environment(ray.d),
             Some(hit) => self.emitted(&self.interaction::<true>(ray, &hit)),
+        }
+    }
+
+    /// The closest hit of one ray, through the scene's cut-outs if it has
+    /// any (the auxiliary images' query; the kernel traces batches).
+    fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+        match self.alpha {
+            None => self.accel.intersect(ray),
+            Some(alpha) => self.accel.intersect_masked(ray, alpha),
         }
     }
 

@@ -5,15 +5,11 @@
 //! ([`crate::render::render_auxiliary`]).
 
 use super::RenderArgs;
-use crate::camera::Camera;
 use crate::denoise;
 use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::image::{self, ExrLayer, OutputOptions};
-use crate::integrator::PathTracer;
 use crate::render::AuxiliaryImages;
-use crate::sampler::SampleSpace;
-use std::time::Instant;
 
 /// Checks of the flags, before anything renders.
 pub(super) fn check(args: &RenderArgs, farm: bool) -> Result<()> {
@@ -51,24 +47,20 @@ pub(super) struct Finished {
 }
 
 /// Where the auxiliary images come from: the render's own camera rays.
-pub(super) struct Sources<'a> {
-    pub tracer: &'a PathTracer<'a>,
-    pub camera: &'a Camera,
+pub(super) struct Sources<'r, 's> {
+    pub rays: denoise::CameraRays<'r, 's>,
     pub resolution: [u32; 2],
-    /// The render's sample space (sampler, seed, total samples per pixel).
-    pub space: SampleSpace,
     /// Whether the render was progressive: then each pixel took as many
     /// samples as its film count says (adaptive sampling stops pixels
     /// early), else `spp` each.
     pub progressive: bool,
     pub spp: u32,
-    pub seed: u64,
 }
 
 /// Render the auxiliary images if a flag needs them, write `--albedo`,
 /// `--normal` and `--noisy`, denoise, and write `--aovs` (whose main layer is
 /// the image `-o` gets: the denoised one with `--denoise`).
-pub(super) fn run(args: &RenderArgs, from: &Sources<'_>, film: &Film) -> Result<Finished> {
+pub(super) fn run(args: &RenderArgs, from: &Sources<'_, '_>, film: &Film) -> Result<Finished> {
     let mut done = Finished {
         denoised: None,
         auxiliary_seconds: None,
@@ -80,21 +72,22 @@ pub(super) fn run(args: &RenderArgs, from: &Sources<'_>, film: &Film) -> Result<
         return Ok(done);
     }
     let [w, h] = from.resolution;
-    let t = Instant::now();
     let samples: Vec<u32> = if from.progressive {
         film.pixels().iter().map(|p| p.count as u32).collect()
     } else {
         vec![from.spp; w as usize * h as usize]
     };
-    let aux = crate::render::render_auxiliary(
-        from.tracer,
-        from.camera,
-        from.resolution,
-        &from.space,
-        &samples,
-        from.seed,
-    );
-    done.auxiliary_seconds = Some(t.elapsed().as_secs_f64());
+    let aux = if args.denoise {
+        let d = from.rays.denoise_render(film, &samples)?;
+        done.denoised = Some(d.image);
+        done.auxiliary_seconds = Some(d.auxiliary_seconds);
+        done.denoise_seconds = Some(d.denoise_seconds);
+        d.aux
+    } else {
+        let (aux, seconds) = from.rays.auxiliary(from.resolution, &samples);
+        done.auxiliary_seconds = Some(seconds);
+        aux
+    };
     let plain = OutputOptions {
         exposure: 0.0,
         metadata: Vec::new(),
@@ -105,16 +98,10 @@ pub(super) fn run(args: &RenderArgs, from: &Sources<'_>, film: &Film) -> Result<
     if let Some(p) = &args.normal {
         image::write_rgb(p, w, h, &aux.normal, &plain)?;
     }
-    let means: Vec<[f64; 3]> = film.pixels().iter().map(|p| p.mean_f64()).collect();
-    if args.denoise {
-        let t = Instant::now();
-        let prefilter = denoise::lens_makes_aux_noisy(from.tracer, from.camera);
-        done.denoised = Some(denoise::denoise_film(film, &aux, prefilter)?);
-        done.denoise_seconds = Some(t.elapsed().as_secs_f64());
-        if let Some(p) = &args.noisy {
-            image::write_image(p, film, &plain)?;
-        }
+    if let Some(p) = &args.noisy {
+        image::write_image(p, film, &plain)?;
     }
+    let means: Vec<[f64; 3]> = film.pixels().iter().map(|p| p.mean_f64()).collect();
     if let Some(p) = &args.aovs {
         let beauty = done.denoised.as_deref().unwrap_or(&means);
         image::write_exr_layers(p, w, h, &aov_layers(beauty, &aux, film), &[])?;

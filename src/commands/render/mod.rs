@@ -650,13 +650,15 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let finished = finish::run(
         &args,
         &finish::Sources {
-            tracer: &tracer,
-            camera: &camera,
+            rays: crate::denoise::CameraRays {
+                tracer: &tracer,
+                camera: &camera,
+                space: crate::sampler::SampleSpace::new(args.sampler, seed, resolution, spp),
+                seed,
+            },
             resolution,
-            space: crate::sampler::SampleSpace::new(args.sampler, seed, resolution, spp),
             progressive,
             spp,
-            seed,
         },
         &out.film,
     )?;

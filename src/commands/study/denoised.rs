@@ -16,9 +16,7 @@ use crate::commands::diff::Image;
 use crate::error::Result;
 use crate::film::Film;
 use crate::integrator::PathTracer;
-use crate::render::render_auxiliary;
 use crate::sampler::SampleSpace;
-use std::time::Instant;
 
 /// Side of the blocks of [`block_error`].
 pub const BLOCK: u32 = 8;
@@ -40,19 +38,21 @@ pub fn denoise_pass(
     seed: u64,
     film: &Film,
 ) -> Result<DenoisedPass> {
-    let t = Instant::now();
+    let rays = crate::denoise::CameraRays {
+        tracer,
+        camera,
+        space: *space,
+        seed,
+    };
     let samples: Vec<u32> = film.pixels().iter().map(|p| p.count as u32).collect();
-    let resolution = [film.width(), film.height()];
-    let aux = render_auxiliary(tracer, camera, resolution, space, &samples, seed);
-    let prefilter = crate::denoise::lens_makes_aux_noisy(tracer, camera);
-    let rgb = crate::denoise::denoise_film(film, &aux, prefilter)?;
+    let d = rays.denoise_render(film, &samples)?;
     Ok(DenoisedPass {
         image: Image {
             width: film.width(),
             height: film.height(),
-            rgb: rgb.iter().flatten().map(|&v| v as f32).collect(),
+            rgb: d.image.iter().flatten().map(|&v| v as f32).collect(),
         },
-        seconds: t.elapsed().as_secs_f64(),
+        seconds: d.auxiliary_seconds + d.denoise_seconds,
     })
 }
 
