@@ -62,6 +62,7 @@ pub mod commands;
 pub mod denoise;
 pub mod farm;
 pub mod film;
+pub mod guiding;
 pub mod image;
 pub mod integrator;
 pub mod light;

@@ -31,6 +31,7 @@ pub struct Renderer<'s> {
     sampler: SamplerKind,
     flags: Flags,
     denoise: bool,
+    guiding: crate::guiding::GuidingMode,
 }
 
 impl<'s> Renderer<'s> {
@@ -43,7 +44,15 @@ impl<'s> Renderer<'s> {
             sampler: SamplerKind::default(),
             flags: Flags::default(),
             denoise: false,
+            guiding: crate::guiding::GuidingMode::default(),
         }
+    }
+
+    /// Path guiding ([`crate::guiding`]), as `render --guiding` (default
+    /// `auto`).
+    pub fn guiding(mut self, mode: crate::guiding::GuidingMode) -> Self {
+        self.guiding = mode;
+        self
     }
 
     /// Denoise the image at the end ([`crate::denoise::denoise_film`]):
@@ -123,10 +132,24 @@ impl<'s> Renderer<'s> {
         }
         let accel = accel::build(self.backend, scene.soup(), AccelOptions::default())?;
         let kernel = Plan::new(scene, &s.integrator).kernel_for(PlanMode::Specialised);
-        let tracer = PathTracer::with_kernel(scene, accel.as_ref(), s.integrator, kernel);
+        let mut tracer = PathTracer::with_kernel(scene, accel.as_ref(), s.integrator, kernel);
         let [w, h] = s.resolution;
         let camera = scene.make_camera(w, h);
         let pool = render::thread_pool(s.threads)?;
+        crate::integrator::training::prepare(
+            &mut tracer,
+            scene,
+            &camera,
+            &crate::integrator::training::GuidingRequest {
+                mode: self.guiding,
+                resolution: s.resolution,
+                seed: s.seed,
+                spp: s.spp,
+                progressive: false,
+            },
+            &pool,
+        );
+        let tracer = tracer;
         let mut film = Film::new(w, h);
         let mut rays = RayCounts::default();
         let passes = passes.clamp(1, s.spp.max(1));

@@ -1,7 +1,11 @@
 //! `embertrace plan`: the effects a scene calls for, what calls for each,
 //! and the code that runs.
 
+use crate::accel::{self, Backend};
 use crate::error::Result;
+use crate::guiding::GuidingMode;
+use crate::integrator::PathTracer;
+use crate::integrator::training::{AUTO_INDIRECT_SHARE, GUIDED_COST, GuidingReport, decide};
 use crate::plan::Plan;
 use crate::scene::Scene;
 use crate::settings::{self, Flags, LightSampler};
@@ -21,7 +25,14 @@ pub struct PlanArgs {
     /// light BVH, by importance at the shading point) [default: auto].
     #[arg(long = "light-sampler", value_name = "auto|power|bvh")]
     light_sampler: Option<LightSampler>,
-    /// Print JSON: `effects` (the names that are on), `kernel`, `details`.
+    /// Path guiding as `render --guiding` would decide it: auto runs the
+    /// render's pre-pass (at the scene's resolution and seed) and prints the
+    /// share of light it found arriving after the first bounce [default: auto].
+    #[arg(long, value_name = "auto|on|off", default_value_t = GuidingMode::Auto)]
+    guiding: GuidingMode,
+    /// Print JSON: `effects` (the names that are on), `kernel`, `details`,
+    /// `guiding` (`mode`, `on`, `indirect_share`, `threshold`,
+    /// `second_moment_ratio`, `guided_cost`).
     #[arg(long)]
     json: bool,
 }
@@ -36,11 +47,59 @@ pub fn run(args: PlanArgs) -> Result<()> {
     };
     let settings = settings::resolve(&scene.render, scene.resolution, &flags)?;
     let plan = Plan::new(&scene, &settings.integrator);
+    let guiding = decide_guiding(&scene, &settings, args.guiding)?;
     if args.json {
-        print!("{}", plan.json());
+        let mut v: serde_json::Value = serde_json::from_str(&plan.json())
+            .map_err(|e| crate::error::Error::Settings(format!("plan JSON: {e}")))?;
+        v["guiding"] = serde_json::json!({
+            "mode": guiding.mode.to_string(),
+            "on": guiding.on,
+            "indirect_share": guiding.auto.map(|m| m.indirect_share),
+            "threshold": AUTO_INDIRECT_SHARE,
+            "second_moment_ratio": guiding.auto.and_then(|m| m.second_moment_ratio),
+            "guided_cost": GUIDED_COST,
+        });
+        println!("{v}");
     } else {
         println!("effects plan for {}:", args.scene.display());
         print!("{}", plan.text());
+        println!("{}", guiding.describe());
     }
     Ok(())
+}
+
+/// `render --guiding`'s decision for the scene at its own resolution and
+/// seed (the pre-pass only: no training).
+fn decide_guiding(
+    scene: &Scene,
+    settings: &settings::Settings,
+    mode: GuidingMode,
+) -> Result<GuidingReport> {
+    if mode != GuidingMode::Auto {
+        return Ok(GuidingReport {
+            on: mode == GuidingMode::On,
+            ..GuidingReport::off(mode)
+        });
+    }
+    let accel = accel::build(Backend::default_backend(), scene.soup(), Default::default())?;
+    let [w, h] = settings.resolution;
+    let camera = scene.make_camera(w, h);
+    let kernel = Plan::new(scene, &settings.integrator).kernel;
+    let mut tracer = PathTracer::with_kernel(scene, accel.as_ref(), settings.integrator, kernel);
+    let pool = crate::render::thread_pool(settings.threads)?;
+    let (on, measure, seconds) = decide(
+        &mut tracer,
+        scene,
+        &camera,
+        settings.resolution,
+        settings.seed,
+        mode,
+        &pool,
+    );
+    Ok(GuidingReport {
+        on,
+        auto: measure,
+        prepass_seconds: seconds,
+        ..GuidingReport::off(mode)
+    })
 }

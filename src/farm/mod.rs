@@ -641,7 +641,12 @@ pub fn check_resume(
         return fail("made from a different scene (or the scene changed)".into());
     }
     let now_s = now.sorted_settings();
-    for ((n, v), (_, v_now)) in prov.sorted_settings().iter().zip(&now_s) {
+    for ((n, v), (n_now, v_now)) in prov.sorted_settings().iter().zip(&now_s) {
+        if n != n_now {
+            return fail(format!(
+                "made with setting {n} where this render has {n_now} (one of them set only when used, as guiding)"
+            ));
+        }
         if v != v_now && !(n == "spp" && same_points) {
             return fail(format!("made with {n} = {v}, not {v_now}"));
         }

@@ -31,9 +31,10 @@
 pub mod light_bvh;
 mod lights;
 mod path;
+pub mod training;
 
 pub use lights::Lights;
-pub use path::{BATCH, BLOCK, Lane};
+pub use path::{BATCH, BLOCK, GuideVertex, Lane};
 
 use crate::accel::Accelerator;
 use crate::camera::Camera;
@@ -100,6 +101,12 @@ pub struct PathTracer<'a> {
     trace_fn: TraceFn<'a>,
     /// The instruction set the kernel runs with ([`crate::simd`]).
     simd: crate::simd::Dispatch,
+    /// The learned distribution of incident light that non-delta bounces
+    /// sample from beside their BSDF ([`crate::guiding`]); `None`: BSDF
+    /// sampling alone.
+    guide: Option<std::sync::Arc<crate::guiding::Guide>>,
+    /// Paths keep their bounces in [`Lane::vertices`] (a guide's training).
+    record: bool,
 }
 
 /// The most delta surfaces [`PathTracer::auxiliary`] follows.
@@ -194,7 +201,26 @@ impl<'a> PathTracer<'a> {
             kernel,
             trace_fn: select_kernel(kernel),
             simd: crate::simd::Dispatch::default(),
+            guide: None,
+            record: false,
         }
+    }
+
+    /// Sample non-delta bounces from a mixture of the BSDF and `guide`
+    /// (`None`: the BSDF alone).
+    pub fn set_guide(&mut self, guide: Option<std::sync::Arc<crate::guiding::Guide>>) {
+        self.guide = guide;
+    }
+
+    /// The guide the render samples from, if any.
+    pub fn guide(&self) -> Option<&crate::guiding::Guide> {
+        self.guide.as_deref()
+    }
+
+    /// Keep every path's non-delta bounces in [`Lane::vertices`], for a
+    /// guide's training.
+    pub fn set_recording(&mut self, record: bool) {
+        self.record = record;
     }
 
     /// The settings.

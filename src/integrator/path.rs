@@ -57,6 +57,45 @@ pub struct Lane {
     alive: bool,
     /// The scattering event that sent `ray`, for the emission it finds.
     prev: Prev,
+    /// The path's non-delta bounces, while a guide trains
+    /// ([`PathTracer::set_recording`]); empty (and unallocated) otherwise.
+    pub vertices: Vec<GuideVertex>,
+}
+
+/// A bounce of a path, as guiding's training records it: the radiance
+/// that arrived along `dir` is `(l_end - l) / beta`, with `l_end` the
+/// path's radiance at its end.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GuideVertex {
+    /// Where the bounce was.
+    pub p: Vec3,
+    /// The geometric normal there, turned to the side the path came from.
+    pub n: Vec3,
+    /// The direction it sampled (world).
+    pub dir: Vec3,
+    /// The density it was sampled with (the mixture's, when guided).
+    pub pdf: f32,
+    /// Throughput after the bounce's sample weight.
+    pub beta: Vec3,
+    /// Radiance the path had gathered when it sampled the direction.
+    pub l: Vec3,
+}
+
+impl GuideVertex {
+    /// The training record for a path that ended with radiance `l_end`:
+    /// the incident radiance's luminance over the sampling density, or
+    /// `None` where it is not finite.
+    pub fn record(&self, l_end: Vec3) -> Option<crate::guiding::Record> {
+        let diff = l_end - self.l;
+        let li = Vec3::select(self.beta.cmpgt(Vec3::ZERO), diff / self.beta, Vec3::ZERO);
+        let value = crate::math::luminance(li.max(Vec3::ZERO)) / self.pdf;
+        value.is_finite().then_some(crate::guiding::Record {
+            p: self.p,
+            n: self.n,
+            dir: self.dir,
+            value,
+        })
+    }
 }
 
 /// What the emission a BSDF-sampled ray finds is weighted with.
@@ -93,6 +132,7 @@ impl Lane {
                     n: Vec3::Z,
                 },
             },
+            vertices: Vec::new(),
         }
     }
 }
@@ -176,6 +216,10 @@ struct Shade<B> {
     /// The unperturbed shading normal and `a2` of a normal-mapped
     /// material's shadowing term ([`crate::scene::Maps::shadowing`]).
     shadowing: Option<(Vec3, f32)>,
+    /// The guide's leaf here, when the render is guided, the BSDF has no
+    /// delta lobe and the leaf has learned something
+    /// ([`crate::guiding`]).
+    guide: Option<u32>,
 }
 
 impl<B> Shade<B> {
@@ -489,6 +533,10 @@ impl<'a> PathTracer<'a> {
                 let n = self.unperturbed_normal(&its);
                 (n, shadowing_alpha2(n, its.ns))
             });
+        let guide = match &self.guide {
+            Some(g) if !bsdf.has_delta_component() => g.leaf_at(its.sp.p, its.ng),
+            _ => None,
+        };
         Shade {
             wo_local: frame.to_local(its.wo),
             its,
@@ -497,6 +545,7 @@ impl<'a> PathTracer<'a> {
             transmits,
             from,
             shadowing,
+            guide,
         }
     }
 
@@ -568,7 +617,7 @@ impl<'a> PathTracer<'a> {
                 let w = if delta_light || !mis {
                     1.0
                 } else {
-                    power_heuristic(n_light, ls.pdf, 1.0, sh.bsdf.pdf(sh.wo_local, wi_local))
+                    power_heuristic(n_light, ls.pdf, 1.0, self.scatter_pdf(sh, wi_local, ls.wi))
                 };
                 shadow[n] = ls.shadow;
                 pending[n] = Pending {
@@ -617,7 +666,12 @@ impl<'a> PathTracer<'a> {
         sh: &Shade<B>,
     ) {
         let its = &sh.its;
-        let Some(bs) = sh.bsdf.sample(sh.wo_local, lane.sampler.next_2d()) else {
+        let u = lane.sampler.next_2d();
+        let bs = match sh.guide {
+            None => sh.bsdf.sample(sh.wo_local, u),
+            Some(leaf) => self.guided_sample(sh, leaf, u),
+        };
+        let Some(bs) = bs else {
             lane.alive = false;
             return;
         };
@@ -642,6 +696,16 @@ impl<'a> PathTracer<'a> {
             from: sh.from.unwrap_or(its.sp),
         };
         lane.beta *= weight;
+        if self.record && !bs.delta {
+            lane.vertices.push(GuideVertex {
+                p: its.sp.p,
+                n: its.ng,
+                dir: wi,
+                pdf: bs.pdf,
+                beta: lane.beta,
+                l: lane.l,
+            });
+        }
         if MATERIALS && sh.transmits && refracted {
             // undo the 1 / eta'^2 of the refraction for the roulette
             let etap = if sh.wo_local.z > 0.0 {
@@ -652,6 +716,67 @@ impl<'a> PathTracer<'a> {
             lane.eta_scale *= etap * etap;
         }
         lane.depth += 1;
+    }
+
+    /// The density with which [`PathTracer::scatter`] samples `wi` (local
+    /// frame; `wi_world` in the world): the BSDF's, or at a guided bounce
+    /// the mixture's of the BSDF and the guide.
+    #[inline]
+    fn scatter_pdf<B: KernelBsdf>(&self, sh: &Shade<B>, wi_local: Vec3, wi_world: Vec3) -> f32 {
+        let p = sh.bsdf.pdf(sh.wo_local, wi_local);
+        match (sh.guide, &self.guide) {
+            (Some(leaf), Some(g)) => {
+                let a = crate::guiding::BSDF_FRACTION;
+                a * p + (1.0 - a) * g.leaf(leaf).pdf(wi_world)
+            }
+            _ => p,
+        }
+    }
+
+    /// A direction from the mixture of the BSDF (with probability
+    /// [`crate::guiding::BSDF_FRACTION`]) and the guide's leaf `leaf`, with
+    /// the mixture's density: the first number picks the strategy and is
+    /// rescaled for it (so a guided bounce draws no more numbers than an
+    /// unguided one).
+    fn guided_sample<B: KernelBsdf>(
+        &self,
+        sh: &Shade<B>,
+        leaf: u32,
+        u: Vec2,
+    ) -> Option<crate::bsdf::BsdfSample> {
+        let g = self.guide.as_ref()?;
+        let tree = g.leaf(leaf);
+        let a = crate::guiding::BSDF_FRACTION;
+        let (by_bsdf, u) = crate::bsdf::choose_lobe(u, a);
+        let (wi, f, bsdf_pdf, guide_pdf) = if by_bsdf {
+            let bs = sh.bsdf.sample(sh.wo_local, u)?;
+            if bs.delta {
+                // not reached (guided BSDFs have no delta lobe); a delta
+                // sample is a discrete choice of probability `a` times its own
+                return crate::bsdf::BsdfSample {
+                    pdf: bs.pdf * a,
+                    ..bs
+                }
+                .checked();
+            }
+            let guide_pdf = tree.pdf(sh.frame.to_world(bs.wi));
+            (bs.wi, bs.f, bs.pdf, guide_pdf)
+        } else {
+            let (d, guide_pdf) = tree.sample(u);
+            let wi = sh.frame.to_local(d);
+            let f = sh.bsdf.eval(sh.wo_local, wi);
+            if f == Vec3::ZERO {
+                return None;
+            }
+            (wi, f, sh.bsdf.pdf(sh.wo_local, wi), guide_pdf)
+        };
+        crate::bsdf::BsdfSample {
+            wi,
+            f,
+            pdf: a * bsdf_pdf + (1.0 - a) * guide_pdf,
+            delta: false,
+        }
+        .checked()
     }
 
     /// Whether `its` is the back of a one-sided material

@@ -12,8 +12,10 @@ use crate::error::clip;
 use crate::error::{Error, Result};
 use crate::farm::{self, Shard};
 use crate::film;
+use crate::guiding::GuidingMode;
 use crate::image::{self, OutputOptions};
 use crate::integrator::PathTracer;
+use crate::integrator::training::GuidingReport;
 use crate::log;
 use crate::outputs::{self, Inputs};
 use crate::plan::{Plan, PlanMode};
@@ -117,6 +119,11 @@ pub struct RenderArgs {
     /// light BVH, by importance at the shading point) [default: auto].
     #[arg(long = "light-sampler", value_name = "auto|power|bvh")]
     light_sampler: Option<LightSampler>,
+    /// Path guiding: auto (guided when a pre-pass finds most of the light
+    /// arriving after the first bounce), on or off. A guided render first
+    /// trains the guide over 1, 2, 4, ... spp (a quarter of -s) [default: auto].
+    #[arg(long, value_name = "auto|on|off", default_value_t = GuidingMode::Auto)]
+    guiding: GuidingMode,
     /// Write a JSON report of the run.
     #[arg(long, value_name = "FILE")]
     report: Option<PathBuf>,
@@ -426,7 +433,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let camera = scene.make_camera(w, h);
     let plan = Plan::new(&scene, &integrator);
     let kernel = plan.kernel_for(args.plan);
-    let tracer = PathTracer::with_kernel(&scene, accel.as_ref(), integrator, kernel);
+    let mut tracer = PathTracer::with_kernel(&scene, accel.as_ref(), integrator, kernel);
     let settings = RenderSettings {
         total_spp: None,
         resolution,
@@ -494,6 +501,23 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     budget.max_spp = spp;
     let progressive = budget.is_progressive() || reference.is_some();
+    let guiding = crate::integrator::training::prepare(
+        &mut tracer,
+        &scene,
+        &camera,
+        &crate::integrator::training::GuidingRequest {
+            mode: args.guiding,
+            resolution,
+            seed,
+            spp,
+            progressive: budget.is_progressive(),
+        },
+        &render::thread_pool(resolved.threads)?,
+    );
+    if args.guiding != GuidingMode::Off {
+        say(&guiding.describe());
+    }
+    let tracer = tracer;
     let mut part_provenance = None;
     let (out, progress) = if farm {
         bar.finish_and_clear();
@@ -512,6 +536,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
                 backend,
                 &args.build,
                 &kernel.describe(),
+                &guiding,
             ),
             samples: args.shard.map_or(0..spp, |s| s.samples(spp)),
             window: match &args.crop {
@@ -611,6 +636,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     report.effects = plan.on().iter().map(|n| n.to_string()).collect();
     report.kernel = kernel.describe();
     report.simd = crate::simd::active().to_string();
+    report.guiding = Some(report::GuidingSummary::of(&guiding));
+    // the pre-pass and the training are part of the render's time
+    report.render_seconds += guiding.prepass_seconds + guiding.train_seconds;
     if let Some(p) = progress {
         report.spp = p.spp_reached;
         log::note(&format!(
@@ -732,6 +760,7 @@ fn image_settings(
     backend: Backend,
     build: &BuildArgs,
     kernel: &str,
+    guiding: &GuidingReport,
 ) -> Vec<(String, String)> {
     let roulette = match i.roulette {
         Roulette::Throughput => "throughput".to_string(),
@@ -767,6 +796,15 @@ fn image_settings(
         (i.light_sampler != LightSampler::Auto)
             .then(|| ("light_sampler".to_string(), i.light_sampler.to_string())),
     )
+    // only when guided, so that unguided files written before guiding
+    // existed still merge and resume; the training is a function of these
+    // settings and the seed, so its iterations name the guide
+    .chain(guiding.on.then(|| {
+        (
+            "guiding".to_string(),
+            format!("{} iterations", guiding.iterations),
+        )
+    }))
     .collect()
 }
 

@@ -113,6 +113,60 @@ pub struct RenderReport {
     /// Seconds the denoiser took (`--denoise`; absent without it).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub denoise_seconds: Option<f64>,
+    /// What path guiding did (`--guiding`); its pre-pass and training
+    /// seconds are also in `render_seconds`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub guiding: Option<GuidingSummary>,
+}
+
+/// The report's `guiding` object.
+#[derive(Debug, Clone, Serialize)]
+pub struct GuidingSummary {
+    /// `auto`, `on` or `off`, as asked.
+    pub mode: String,
+    /// Whether the render was guided.
+    pub on: bool,
+    /// `auto`'s pre-pass: the share of light arriving after the first
+    /// non-delta bounce (absent for `on` and `off`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub indirect_share: Option<f64>,
+    /// `auto`'s guided pre-pass: its samples' mean squared luminance over
+    /// the unguided pre-pass's (absent where the share alone decided).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub second_moment_ratio: Option<f64>,
+    /// The pre-pass's seconds.
+    pub prepass_seconds: f64,
+    /// Training iterations (1, 2, 4, ... spp).
+    pub iterations: u32,
+    /// Samples per pixel the training traced.
+    pub train_spp: u32,
+    /// The training's seconds.
+    pub train_seconds: f64,
+    /// Rays the training traced.
+    pub train_rays: u64,
+    /// The guide's spatial leaves.
+    pub leaves: usize,
+    /// Its directional quadtree nodes.
+    pub nodes: usize,
+}
+
+impl GuidingSummary {
+    /// The summary of `g`.
+    pub fn of(g: &crate::integrator::training::GuidingReport) -> Self {
+        GuidingSummary {
+            mode: g.mode.to_string(),
+            on: g.on,
+            indirect_share: g.auto.map(|m| m.indirect_share),
+            second_moment_ratio: g.auto.and_then(|m| m.second_moment_ratio),
+            prepass_seconds: g.prepass_seconds,
+            iterations: g.iterations,
+            train_spp: g.train_spp,
+            train_seconds: g.train_seconds,
+            train_rays: g.train_rays.total(),
+            leaves: g.leaves,
+            nodes: g.nodes,
+        }
+    }
 }
 
 /// What a progressive render (`--time-limit`, `--target-error`, `-a`,
@@ -183,6 +237,7 @@ impl RenderReport {
             sampler: settings.sampler.to_string(),
             threads: out.threads,
             simd: String::new(),
+            guiding: None,
             load_seconds,
             accel_build_seconds,
             render_seconds: out.seconds,

@@ -1,0 +1,366 @@
+//! The directional half of an SD-tree (Müller, Gross and Novák 2017,
+//! "Practical Path Guiding for Efficient Light-Transport Simulation",
+//! section 3): a quadtree over the unit square, which the cylindrical map
+//! [`square_to_dir`] lays over the sphere of directions with equal area,
+//! so a cell's share of the square is its share of solid angle.
+//!
+//! Each node holds the energy of its four quadrants; a quadrant either is
+//! a leaf or points to a child node. A [`BuildTree`] sums the energy of the
+//! records of one training iteration (in `f64`, in the order they come);
+//! [`BuildTree::to_sampling`] freezes it into a [`SampleTree`], which draws
+//! directions in proportion to that energy; [`BuildTree::refined`] lays out
+//! the next iteration's tree, subdividing where a quadrant holds more than
+//! [`SUBDIVIDE_FRACTION`] of the energy and merging where it holds less.
+
+use crate::math::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// A quadrant holding more than this share of a tree's energy is split in
+/// the next iteration (Müller et al. 2017's `rho = 0.01`).
+pub const SUBDIVIDE_FRACTION: f64 = 0.01;
+
+/// The deepest a quadtree grows (Müller et al. 2017: 20 levels).
+pub const MAX_DEPTH: u32 = 20;
+
+/// The largest f32 below 1.
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// The unit square's point for direction `d` (unit length): `x` is
+/// `(cos theta + 1) / 2`, `y` is `phi / 2 pi`. Equal-area: the Jacobian of
+/// [`square_to_dir`] is `4 pi` everywhere.
+#[inline]
+pub fn dir_to_square(d: Vec3) -> Vec2 {
+    let x = ((d.z.clamp(-1.0, 1.0) + 1.0) * 0.5).min(ONE_MINUS_EPSILON);
+    let mut phi = d.y.atan2(d.x);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    let y = (phi * (0.5 / PI)).clamp(0.0, ONE_MINUS_EPSILON);
+    Vec2::new(x, y)
+}
+
+/// The direction at point `q` of the unit square ([`dir_to_square`]'s
+/// inverse).
+#[inline]
+pub fn square_to_dir(q: Vec2) -> Vec3 {
+    let cos_theta = 2.0 * q.x - 1.0;
+    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    let (s, c) = (2.0 * PI * q.y).sin_cos();
+    Vec3::new(sin_theta * c, sin_theta * s, cos_theta)
+}
+
+/// Which quadrant of a node `q` (in the node's own unit square) falls in,
+/// and `q` in that quadrant's unit square. Quadrant `i` has `x` half
+/// `i & 1` and `y` half `i >> 1`.
+#[inline]
+fn quadrant(q: Vec2) -> (usize, Vec2) {
+    let ix = usize::from(q.x >= 0.5);
+    let iy = usize::from(q.y >= 0.5);
+    let child = Vec2::new(
+        (q.x * 2.0 - ix as f32).clamp(0.0, ONE_MINUS_EPSILON),
+        (q.y * 2.0 - iy as f32).clamp(0.0, ONE_MINUS_EPSILON),
+    );
+    (ix + 2 * iy, child)
+}
+
+/// A node while it gathers energy: its quadrants' sums, and per quadrant
+/// the child node's index (0 for a leaf quadrant: the root is node 0 and
+/// never anyone's child).
+#[derive(Debug, Clone, PartialEq)]
+struct BuildNode {
+    sum: [f64; 4],
+    child: [u32; 4],
+}
+
+const EMPTY: BuildNode = BuildNode {
+    sum: [0.0; 4],
+    child: [0; 4],
+};
+
+/// A quadtree gathering one iteration's energy.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BuildTree {
+    nodes: Vec<BuildNode>,
+}
+
+impl Default for BuildTree {
+    fn default() -> Self {
+        BuildTree { nodes: vec![EMPTY] }
+    }
+}
+
+impl BuildTree {
+    /// Add `value` at point `q` of the square: to the quadrant holding `q`
+    /// at every level down to its leaf.
+    pub fn add(&mut self, q: Vec2, value: f64) {
+        let mut node = 0usize;
+        let mut q = q;
+        loop {
+            let (i, inner) = quadrant(q);
+            self.nodes[node].sum[i] += value;
+            match self.nodes[node].child[i] {
+                0 => return,
+                c => {
+                    node = c as usize;
+                    q = inner;
+                }
+            }
+        }
+    }
+
+    /// The energy of all records added.
+    pub fn total(&self) -> f64 {
+        self.nodes[0].sum.iter().sum()
+    }
+
+    /// Nodes in the tree (for the report).
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// The energy frozen into a tree that samples in proportion to it.
+    pub fn to_sampling(&self) -> SampleTree {
+        let total = self.total();
+        SampleTree {
+            nodes: self
+                .nodes
+                .iter()
+                .map(|n| SampleNode::new(n.sum.map(|s| s as f32), n.child))
+                .collect(),
+            usable: total > 0.0 && total.is_finite(),
+        }
+    }
+
+    /// The next iteration's empty tree: a quadrant whose share of the
+    /// energy exceeds [`SUBDIVIDE_FRACTION`] gets a child (whose quadrants
+    /// inherit this tree's sums below it, or a quarter of the quadrant's
+    /// where this tree stops), recursively, to [`MAX_DEPTH`] levels; the
+    /// rest are leaves. With no energy, a single node.
+    pub fn refined(&self) -> BuildTree {
+        let total = self.total();
+        let mut out = BuildTree::default();
+        if !(total > 0.0) {
+            return out;
+        }
+        // (new node, old node or none, the sums the new node's quadrants
+        // start from, depth)
+        let mut stack: Vec<(usize, Option<usize>, [f64; 4], u32)> =
+            vec![(0, Some(0), self.nodes[0].sum, 1)];
+        while let Some((new, old, sums, depth)) = stack.pop() {
+            for (i, &sum) in sums.iter().enumerate() {
+                if depth >= MAX_DEPTH || sum / total <= SUBDIVIDE_FRACTION {
+                    continue;
+                }
+                let old_child = old
+                    .map(|o| self.nodes[o].child[i])
+                    .filter(|&c| c != 0)
+                    .map(|c| c as usize);
+                let child_sums = match old_child {
+                    Some(c) => self.nodes[c].sum,
+                    None => [sum / 4.0; 4],
+                };
+                let idx = out.nodes.len();
+                out.nodes.push(EMPTY);
+                out.nodes[new].child[i] = idx as u32;
+                stack.push((idx, old_child, child_sums, depth + 1));
+            }
+        }
+        out
+    }
+}
+
+/// A node of a frozen tree, with what sampling and density lookups need
+/// precomputed from its quadrants' energies `s`: the probability of the
+/// lower x half (`s[0] + s[2]` of the total), of the lower y half within
+/// each x half, and per quadrant its density factor `4 s[i] / total`. A
+/// node without energy is uniform.
+#[derive(Debug, Clone, PartialEq)]
+struct SampleNode {
+    p_left: f32,
+    p_low: [f32; 2],
+    factor: [f32; 4],
+    child: [u32; 4],
+}
+
+impl SampleNode {
+    fn new(s: [f32; 4], child: [u32; 4]) -> Self {
+        let total = s[0] + s[1] + s[2] + s[3];
+        if !(total > 0.0 && total.is_finite()) {
+            return SampleNode {
+                p_left: 0.5,
+                p_low: [0.5; 2],
+                factor: [1.0; 4],
+                child,
+            };
+        }
+        let half = |a: f32, b: f32| if a + b > 0.0 { a / (a + b) } else { 0.5 };
+        SampleNode {
+            p_left: (s[0] + s[2]) / total,
+            p_low: [half(s[0], s[2]), half(s[1], s[3])],
+            factor: s.map(|x| 4.0 * x / total),
+            child,
+        }
+    }
+}
+
+/// A quadtree frozen from a [`BuildTree`]: draws points of the square, and
+/// so directions, in proportion to the energy it was built from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SampleTree {
+    nodes: Vec<SampleNode>,
+    usable: bool,
+}
+
+impl Default for SampleTree {
+    fn default() -> Self {
+        BuildTree::default().to_sampling()
+    }
+}
+
+/// One choice between two halves with probability `p` of the first: the
+/// half, and `u` rescaled to `[0, 1)` within it.
+#[inline]
+fn choose(u: f32, p: f32) -> (usize, f32) {
+    if u < p {
+        (0, (u / p).min(ONE_MINUS_EPSILON))
+    } else {
+        (1, ((u - p) / (1.0 - p)).clamp(0.0, ONE_MINUS_EPSILON))
+    }
+}
+
+impl SampleTree {
+    /// Whether the tree has energy to sample from.
+    #[inline]
+    pub fn is_usable(&self) -> bool {
+        self.usable
+    }
+
+    /// A direction drawn in proportion to the energy, and its solid-angle
+    /// density. Only for a usable tree ([`SampleTree::is_usable`]).
+    pub fn sample(&self, u: Vec2) -> (Vec3, f32) {
+        let (mut ux, mut uy) = (u.x, u.y);
+        let mut node = &self.nodes[0];
+        let mut origin = Vec2::ZERO;
+        let mut size = 1.0f32;
+        let mut pdf = 1.0f32 / (4.0 * PI);
+        loop {
+            // x half first, then the y half within it
+            let (ix, x) = choose(ux, node.p_left);
+            let (iy, y) = choose(uy, node.p_low[ix]);
+            (ux, uy) = (x, y);
+            let i = ix + 2 * iy;
+            pdf *= node.factor[i];
+            size *= 0.5;
+            origin += Vec2::new(ix as f32, iy as f32) * size;
+            match node.child[i] {
+                0 => break,
+                c => node = &self.nodes[c as usize],
+            }
+        }
+        let q =
+            (origin + Vec2::new(ux, uy) * size).clamp(Vec2::ZERO, Vec2::splat(ONE_MINUS_EPSILON));
+        (square_to_dir(q), pdf)
+    }
+
+    /// The solid-angle density [`SampleTree::sample`] draws direction `d`
+    /// with (0 for a tree without energy).
+    pub fn pdf(&self, d: Vec3) -> f32 {
+        if !self.usable {
+            return 0.0;
+        }
+        let mut q = dir_to_square(d);
+        let mut node = &self.nodes[0];
+        let mut pdf = 1.0f32 / (4.0 * PI);
+        loop {
+            let (i, inner) = quadrant(q);
+            pdf *= node.factor[i];
+            match node.child[i] {
+                0 => return pdf,
+                c => {
+                    node = &self.nodes[c as usize];
+                    q = inner;
+                }
+            }
+        }
+    }
+
+    /// Nodes in the tree.
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampler::Sampler;
+
+    #[test]
+    fn the_square_map_round_trips_and_keeps_area() {
+        let mut s = Sampler::new(3, 0, 0);
+        for _ in 0..1000 {
+            let q = s.next_2d();
+            let d = square_to_dir(q);
+            assert!((d.length() - 1.0).abs() < 1e-5);
+            let back = dir_to_square(d);
+            assert!(
+                (back - q).abs().max_element() < 1e-4,
+                "{q} -> {d} -> {back}"
+            );
+        }
+        // a band of the square's x is a band of cos theta: equal area
+        let band = |x0: f32, x1: f32| (x1 - x0) * 4.0 * PI;
+        assert!((band(0.0, 0.5) - 2.0 * PI).abs() < 1e-6);
+    }
+
+    /// A tree built from energy concentrated around one direction: its
+    /// samples' densities agree with `pdf`, the density integrates to 1,
+    /// and most samples land near the direction.
+    #[test]
+    fn a_refined_tree_samples_what_it_learned() {
+        let target = Vec3::new(0.3, -0.5, 0.81).normalize();
+        let mut s = Sampler::new(11, 0, 0);
+        let mut tree = BuildTree::default();
+        for _ in 0..6 {
+            let mut next = tree.refined();
+            for _ in 0..20_000 {
+                let d = square_to_dir(s.next_2d());
+                // a lobe around the target, plus a floor
+                let v = (d.dot(target).max(0.0)).powi(20) + 0.01;
+                next.add(dir_to_square(d), v as f64);
+            }
+            tree = next;
+        }
+        assert!(tree.node_count() > 20, "{} nodes", tree.node_count());
+        let st = tree.to_sampling();
+        assert!(st.is_usable());
+        let mut near = 0;
+        for _ in 0..10_000 {
+            let (d, pdf) = st.sample(s.next_2d());
+            let p = st.pdf(d);
+            assert!((p - pdf).abs() <= 1e-3 * pdf, "{p} against {pdf}");
+            if d.dot(target) > 0.9 {
+                near += 1;
+            }
+        }
+        // the cap dot > 0.9 is 5 % of the sphere; the lobe puts most there
+        assert!(near > 5_000, "{near} of 10000 near the lobe");
+        // the density integrates to 1 (uniform directions, mean of pdf * 4 pi)
+        let n = 200_000;
+        let mut sum = 0.0f64;
+        for _ in 0..n {
+            let d = square_to_dir(s.next_2d());
+            sum += st.pdf(d) as f64 * 4.0 * std::f64::consts::PI;
+        }
+        let mean = sum / n as f64;
+        assert!((mean - 1.0).abs() < 0.03, "integral {mean}");
+    }
+
+    #[test]
+    fn an_empty_tree_is_not_usable_and_refines_to_one_node() {
+        let t = BuildTree::default();
+        assert!(!t.to_sampling().is_usable());
+        assert_eq!(t.refined().node_count(), 1);
+        assert_eq!(t.to_sampling().pdf(Vec3::Z), 0.0);
+    }
+}
