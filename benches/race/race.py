@@ -58,6 +58,9 @@ SCENES = {
     "cornell-mesh": ("scenes/cornell-mesh.toml", 256, 256),
     "cornell-spheres": ("scenes/cornell-spheres.toml", 256, 256),
     "materials": ("scenes/materials.toml", 256, 128),
+    # hard lighting (issue 38), Mitsuba 3 XML that both renderers read as
+    # it is: benches/race/hard/make_hard_scenes.py
+    "door-ajar": ("benches/race/hard/door-ajar.xml", 128, 128),
 }
 MITSUBA_SAMPLERS = ["independent", "ldsampler", "multijitter"]
 # Above this many samples per pixel (references) renders are not timed,
@@ -105,7 +108,12 @@ class Mitsuba:
         self.converted, self.width, self.height = converted, width, height
         self.sampler = sampler
         self.name = f"mitsuba {sampler}"
-        self.scene = mi.load_dict(mitsuba_scene.scene_dict(converted, width, height, sampler))
+        if converted.endswith(".xml"):
+            # a scene written as Mitsuba XML: read as it is, with its
+            # `$width`, `$height` and `$sampler` set
+            self.scene = mi.load_file(converted, width=width, height=height, sampler=sampler)
+        else:
+            self.scene = mi.load_dict(mitsuba_scene.scene_dict(converted, width, height, sampler))
         self.warm = set()
 
     def render(self, spp, seed):
@@ -178,9 +186,13 @@ def race_scene(name, args, cache):
         w, h = args.width, args.height
     work = tempfile.mkdtemp(prefix=f"race-{name}-")
     try:
-        converted = os.path.join(work, "scene.toml")
-        subprocess.run([embertrace_bin(), "convert", os.path.join(ROOT, scene_file), converted],
-                       check=True, capture_output=True)
+        if scene_file.endswith(".xml"):
+            converted = os.path.join(work, "scene.xml")
+            shutil.copy(os.path.join(ROOT, scene_file), converted)
+        else:
+            converted = os.path.join(work, "scene.toml")
+            subprocess.run([embertrace_bin(), "convert", os.path.join(ROOT, scene_file),
+                            converted], check=True, capture_output=True)
         digest = hashlib.sha256()
         for f in sorted(os.listdir(work)):
             with open(os.path.join(work, f), "rb") as fh:

@@ -1,0 +1,123 @@
+#!/usr/bin/env python3
+"""Writes the race's hard-lighting scenes as Mitsuba 3 XML, so that both
+renderers read the same file:
+
+- door-ajar.xml: two rooms joined by a doorway whose door stands ajar
+  (15 degrees); the only light is a small ceiling panel in the far room, so
+  the camera's room is lit through the gap alone (Veach's door scene,
+  re-made here).
+
+    python3 benches/race/hard/make_hard_scenes.py   # rewrites the .xml files
+
+The film's reconstruction filter is a box, as embertrace's is (Mitsuba's
+default Gaussian would spread each sample over a pixel's neighbours and
+lower the per-pixel error the race compares). Every `$name` has a
+`<default>`, so `mi.load_file(path, spp=..., ...)` and
+`embertrace render path` read the same scene; the race overrides the
+resolution and the sampler.
+"""
+import math
+import os
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def quad(corner, e1, e2, bsdf, emitter=None, comment=None):
+    """A `rectangle` whose corners are corner, corner+e1, corner+e1+e2 and
+    corner+e2, facing e1 x e2."""
+    cx = [corner[i] + 0.5 * (e1[i] + e2[i]) for i in range(3)]
+    n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]]
+    ln = math.sqrt(sum(c * c for c in n))
+    n = [c / ln for c in n]
+    rows = [[0.5 * e1[i], 0.5 * e2[i], n[i], cx[i]] for i in range(3)] + [[0, 0, 0, 1]]
+    m = " ".join(f"{v:.6g}" for r in rows for v in r)
+    out = []
+    if comment:
+        out.append(f"    <!-- {comment} -->")
+    out.append('    <shape type="rectangle">')
+    out.append(f'        <transform name="to_world"><matrix value="{m}"/></transform>')
+    out.append(f'        <ref id="{bsdf}"/>')
+    if emitter:
+        out.append(f'        <emitter type="area"><rgb name="radiance" value="{emitter}"/></emitter>')
+    out.append("    </shape>")
+    return "\n".join(out)
+
+
+def header(w, h, spp, max_depth, origin, target, fov):
+    o = ", ".join(f"{v:g}" for v in origin)
+    t = ", ".join(f"{v:g}" for v in target)
+    return f"""<scene version="3.0.0">
+    <default name="spp" value="{spp}"/>
+    <default name="width" value="{w}"/>
+    <default name="height" value="{h}"/>
+    <default name="max_depth" value="{max_depth}"/>
+    <default name="sampler" value="independent"/>
+    <integrator type="path">
+        <integer name="max_depth" value="$max_depth"/>
+    </integrator>
+    <sensor type="perspective">
+        <float name="fov" value="{fov}"/>
+        <transform name="to_world">
+            <lookat origin="{o}" target="{t}" up="0, 1, 0"/>
+        </transform>
+        <film type="hdrfilm">
+            <integer name="width" value="$width"/>
+            <integer name="height" value="$height"/>
+            <rfilter type="box"/>
+        </film>
+        <sampler type="$sampler">
+            <integer name="sample_count" value="$spp"/>
+        </sampler>
+    </sensor>
+"""
+
+
+def door_ajar():
+    # rooms: x in [0, 4], y in [0, 2.5]; the camera's room z in [0, 4], the
+    # lit room z in [-3, 0]; the wall at z = 0 has a doorway x in [1.5, 2.5],
+    # y in [0, 2]
+    W, H, Z0, Z1 = 4.0, 2.5, -3.0, 4.0
+    dx0, dx1, dh = 1.5, 2.5, 2.0
+    angle = math.radians(15.0)
+    parts = [header(128, 128, 64, 24, (3.4, 1.4, 3.8), (1.6, 0.9, 0.0), 65)]
+    parts.append("""    <bsdf type="twosided" id="wall">
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.75, 0.73, 0.70"/></bsdf>
+    </bsdf>
+    <bsdf type="twosided" id="floor">
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.45, 0.35, 0.25"/></bsdf>
+    </bsdf>
+    <bsdf type="twosided" id="door">
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.55, 0.25, 0.15"/></bsdf>
+    </bsdf>
+    <bsdf type="diffuse" id="black">
+        <rgb name="reflectance" value="0, 0, 0"/>
+    </bsdf>""")
+    L = Z1 - Z0
+    parts.append(quad((0, 0, Z0), (0, 0, L), (W, 0, 0), "floor", comment="floor, both rooms"))
+    parts.append(quad((0, H, Z0), (W, 0, 0), (0, 0, L), "wall", comment="ceiling"))
+    parts.append(quad((0, 0, Z0), (0, H, 0), (0, 0, L), "wall", comment="left wall"))
+    parts.append(quad((W, 0, Z0), (0, 0, L), (0, H, 0), "wall", comment="right wall"))
+    parts.append(quad((0, 0, Z0), (W, 0, 0), (0, H, 0), "wall", comment="far room's back wall"))
+    parts.append(quad((0, 0, Z1), (0, H, 0), (W, 0, 0), "wall", comment="wall behind the camera"))
+    parts.append(quad((0, 0, 0), (dx0, 0, 0), (0, H, 0), "wall", comment="dividing wall, left of the door"))
+    parts.append(quad((dx1, 0, 0), (W - dx1, 0, 0), (0, H, 0), "wall", comment="dividing wall, right"))
+    parts.append(quad((dx0, dh, 0), (dx1 - dx0, 0, 0), (0, H - dh, 0), "wall", comment="above the door"))
+    # the door: hinged at x = dx0, swung 15 degrees into the lit room
+    width = dx1 - dx0
+    e1 = (width * math.cos(angle), 0, -width * math.sin(angle))
+    parts.append(quad((dx0, 0, 0), e1, (0, dh, 0), "door", comment="the door, ajar"))
+    # the light: a 0.5 m panel on the lit room's ceiling, far from the door,
+    # facing down
+    parts.append(quad((3.0, H - 0.01, -2.6), (0.5, 0, 0), (0, 0, 0.5), "black",
+                      emitter="400, 370, 300", comment="the only light"))
+    parts.append("</scene>\n")
+    return "\n".join(parts)
+
+
+def main():
+    with open(os.path.join(HERE, "door-ajar.xml"), "w") as f:
+        f.write(door_ajar())
+
+
+if __name__ == "__main__":
+    main()
