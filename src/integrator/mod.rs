@@ -34,7 +34,7 @@ mod path;
 pub mod training;
 
 pub use lights::Lights;
-pub use path::{BATCH, BLOCK, GuideVertex, Lane};
+pub use path::{BATCH, BLOCK, GuideVertex, Lane, take_recorded};
 
 use crate::accel::Accelerator;
 use crate::camera::Camera;
@@ -105,7 +105,7 @@ pub struct PathTracer<'a> {
     /// sample from beside their BSDF ([`crate::guiding`]); `None`: BSDF
     /// sampling alone.
     guide: Option<std::sync::Arc<crate::guiding::Guide>>,
-    /// Paths keep their bounces in [`Lane::vertices`] (a guide's training).
+    /// Paths' bounces are kept for [`take_recorded`] (a guide's training).
     record: bool,
 }
 
@@ -217,8 +217,8 @@ impl<'a> PathTracer<'a> {
         self.guide.as_deref()
     }
 
-    /// Keep every path's non-delta bounces in [`Lane::vertices`], for a
-    /// guide's training.
+    /// Keep every path's non-delta bounces for a guide's training
+    /// ([`take_recorded`]).
     pub fn set_recording(&mut self, record: bool) {
         self.record = record;
     }

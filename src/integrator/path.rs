@@ -57,9 +57,31 @@ pub struct Lane {
     alive: bool,
     /// The scattering event that sent `ray`, for the emission it finds.
     prev: Prev,
-    /// The path's non-delta bounces, while a guide trains
-    /// ([`PathTracer::set_recording`]); empty (and unallocated) otherwise.
-    pub vertices: Vec<GuideVertex>,
+}
+
+thread_local! {
+    /// The non-delta bounces a recording kernel ([`PathTracer::set_recording`])
+    /// traced on this thread, as (lane index in its batch, bounce), in the
+    /// order they happened; [`take_recorded`] hands them over. Kept beside
+    /// the lanes, not in them, so that a render that does not record moves
+    /// no more bytes per lane.
+    static RECORDED: std::cell::RefCell<Vec<(u32, GuideVertex)>> =
+        const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Keep bounce `v` of lane `index` ([`RECORDED`]); out of line, since only
+/// a guide's training records.
+#[cold]
+#[inline(never)]
+fn record(index: usize, v: GuideVertex) {
+    RECORDED.with(|r| r.borrow_mut().push((index as u32, v)));
+}
+
+/// The bounces recorded on this thread since the last call (see
+/// [`PathTracer::set_recording`]): a caller that traces one batch and then
+/// takes them gets that batch's, in order, whatever thread it runs on.
+pub fn take_recorded() -> Vec<(u32, GuideVertex)> {
+    RECORDED.with(|r| std::mem::take(&mut *r.borrow_mut()))
 }
 
 /// A bounce of a path, as guiding's training records it: the radiance
@@ -132,7 +154,6 @@ impl Lane {
                     n: Vec3::Z,
                 },
             },
-            vertices: Vec::new(),
         }
     }
 }
@@ -233,12 +254,22 @@ impl<B> Shade<B> {
     }
 }
 
-/// A light sample waiting for its shadow ray: its lane and what it adds
-/// if the ray is unoccluded (before the throughput).
+/// A light sample waiting for its shadow ray: its lane, and what it adds
+/// if the ray is unoccluded (before the throughput and the MIS weight,
+/// which is worked out only for unoccluded samples: the BSDF's, or a
+/// guided bounce's mixture, density costs a lookup).
 #[derive(Debug, Clone, Copy)]
 struct Pending {
-    lane: usize,
-    contribution: Vec3,
+    /// `f li` (the BSDF value, shadowing included, times the radiance).
+    f_li: Vec3,
+    /// The sample's direction (world; the shading frame gives it again
+    /// in local coordinates, the same bits).
+    wi: Vec3,
+    /// The light sample's density.
+    pdf: f32,
+    lane: u8,
+    /// Weighted by MIS (else weight 1: a delta light, or no MIS).
+    mis: bool,
 }
 
 /// The corner normals `c` blended at barycentrics `(u, v)`, not normalised.
@@ -389,9 +420,9 @@ impl<'a> PathTracer<'a> {
             self.sample_lights::<B, DELTA, SHAPES>(lanes, &shade, rays);
 
             // --- BSDF sampling: each live path's next ray ---
-            for (lane, sh) in lanes.iter_mut().zip(shade.iter_mut()) {
+            for (i, (lane, sh)) in lanes.iter_mut().zip(shade.iter_mut()).enumerate() {
                 if let Some(s) = sh {
-                    self.scatter::<B, MATERIALS, DELTA, SHAPES>(lane, s);
+                    self.scatter::<B, MATERIALS, DELTA, SHAPES>(lane, i, s);
                     *sh = None;
                 }
             }
@@ -575,8 +606,11 @@ impl<'a> PathTracer<'a> {
         let mut sum = [Vec3::ZERO; BATCH];
         let mut shadow = [NO_RAY; BATCH];
         let mut pending = [Pending {
+            f_li: Vec3::ZERO,
+            wi: Vec3::Z,
+            pdf: 0.0,
             lane: 0,
-            contribution: Vec3::ZERO,
+            mis: false,
         }; BATCH];
         let mut occluded = [false; BATCH];
         let mut any = false;
@@ -614,15 +648,13 @@ impl<'a> PathTracer<'a> {
                 if f == Vec3::ZERO || ls.li == Vec3::ZERO {
                     continue;
                 }
-                let w = if delta_light || !mis {
-                    1.0
-                } else {
-                    power_heuristic(n_light, ls.pdf, 1.0, self.scatter_pdf(sh, wi_local, ls.wi))
-                };
                 shadow[n] = ls.shadow;
                 pending[n] = Pending {
-                    lane: i,
-                    contribution: f * ls.li * (wi_local.z.abs() * w / ls.pdf),
+                    f_li: f * ls.li,
+                    wi: ls.wi,
+                    pdf: ls.pdf,
+                    lane: i as u8,
+                    mis: mis && !delta_light,
                 };
                 n += 1;
             }
@@ -644,7 +676,15 @@ impl<'a> PathTracer<'a> {
             }
             for (p, &o) in pending[..n].iter().zip(&occluded[..n]) {
                 if !o {
-                    sum[p.lane] += p.contribution;
+                    let lane = p.lane as usize;
+                    let Some(sh) = &shade[lane] else { continue };
+                    let wi_local = sh.frame.to_local(p.wi);
+                    let w = if p.mis {
+                        power_heuristic(n_light, p.pdf, 1.0, self.scatter_pdf(sh, wi_local, p.wi))
+                    } else {
+                        1.0
+                    };
+                    sum[lane] += p.f_li * (wi_local.z.abs() * w / p.pdf);
                 }
             }
         }
@@ -663,6 +703,7 @@ impl<'a> PathTracer<'a> {
     fn scatter<B: KernelBsdf, const MATERIALS: bool, const DELTA: bool, const SHAPES: bool>(
         &self,
         lane: &mut Lane,
+        index: usize,
         sh: &Shade<B>,
     ) {
         let its = &sh.its;
@@ -697,14 +738,17 @@ impl<'a> PathTracer<'a> {
         };
         lane.beta *= weight;
         if self.record && !bs.delta {
-            lane.vertices.push(GuideVertex {
-                p: its.sp.p,
-                n: its.ng,
-                dir: wi,
-                pdf: bs.pdf,
-                beta: lane.beta,
-                l: lane.l,
-            });
+            record(
+                index,
+                GuideVertex {
+                    p: its.sp.p,
+                    n: its.ng,
+                    dir: wi,
+                    pdf: bs.pdf,
+                    beta: lane.beta,
+                    l: lane.l,
+                },
+            );
         }
         if MATERIALS && sh.transmits && refracted {
             // undo the 1 / eta'^2 of the refraction for the roulette
@@ -737,7 +781,9 @@ impl<'a> PathTracer<'a> {
     /// [`crate::guiding::BSDF_FRACTION`]) and the guide's leaf `leaf`, with
     /// the mixture's density: the first number picks the strategy and is
     /// rescaled for it (so a guided bounce draws no more numbers than an
-    /// unguided one).
+    /// unguided one). Never inlined: an unguided render's kernel stays as
+    /// small as it was.
+    #[inline(never)]
     fn guided_sample<B: KernelBsdf>(
         &self,
         sh: &Shade<B>,

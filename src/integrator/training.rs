@@ -10,7 +10,7 @@
 //! the same training, so shards merge to the one-machine image bit for bit,
 //! and a resumed render trains again to the same guide.
 
-use super::{BLOCK, Lane, PathTracer, RayCounts};
+use super::{BATCH, BLOCK, GuideVertex, Lane, PathTracer, RayCounts, take_recorded};
 use crate::camera::Camera;
 use crate::guiding::{Guide, GuideBuilder, GuidingMode, Record};
 use crate::math::{Vec2, Vec3, luminance};
@@ -275,8 +275,8 @@ fn prepass(
                         seed,
                         view.stretch,
                     );
-                    shared.trace(&mut lanes, &mut rays);
-                    for lane in &lanes {
+                    let vertices = trace_recorded(shared, &mut lanes, &mut rays);
+                    for (lane, vertices) in lanes.iter().zip(&vertices) {
                         sum[3] += 1.0;
                         if !lane.l.is_finite() {
                             continue;
@@ -284,7 +284,7 @@ fn prepass(
                         let y = luminance(lane.l.max(Vec3::ZERO)) as f64;
                         sum[0] += y;
                         sum[2] += y * y;
-                        if let Some(v) = lane.vertices.first() {
+                        if let Some(v) = vertices.first() {
                             sum[1] += luminance((lane.l - v.l).max(Vec3::ZERO)) as f64;
                         }
                     }
@@ -366,12 +366,12 @@ fn train_view(
                                 seed,
                                 view.stretch,
                             );
-                            shared.trace(&mut lanes, &mut r);
-                            for lane in &lanes {
+                            let vertices = trace_recorded(shared, &mut lanes, &mut r);
+                            for (lane, vertices) in lanes.iter().zip(&vertices) {
                                 if !lane.l.is_finite() {
                                     continue;
                                 }
-                                out.extend(lane.vertices.iter().filter_map(|v| v.record(lane.l)));
+                                out.extend(vertices.iter().filter_map(|v| v.record(lane.l)));
                             }
                         }
                         (out, r)
@@ -403,6 +403,23 @@ fn train_view(
         leaves,
         nodes,
     }
+}
+
+/// Trace one batch (at most [`BATCH`] lanes) with the tracer recording,
+/// and return each lane's bounces in order.
+fn trace_recorded(
+    tracer: &PathTracer<'_>,
+    lanes: &mut [Lane],
+    rays: &mut RayCounts,
+) -> Vec<Vec<GuideVertex>> {
+    assert!(lanes.len() <= BATCH, "one batch at a time");
+    take_recorded();
+    tracer.trace(lanes, rays);
+    let mut per_lane = vec![Vec::new(); lanes.len()];
+    for (i, v) in take_recorded() {
+        per_lane[i as usize].push(v);
+    }
+    per_lane
 }
 
 /// The top-left corners of the image's [`BLOCK`] x [`BLOCK`] pixel blocks,
