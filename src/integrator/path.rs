@@ -254,22 +254,12 @@ impl<B> Shade<B> {
     }
 }
 
-/// A light sample waiting for its shadow ray: its lane, and what it adds
-/// if the ray is unoccluded (before the throughput and the MIS weight,
-/// which is worked out only for unoccluded samples: the BSDF's, or a
-/// guided bounce's mixture, density costs a lookup).
+/// A light sample waiting for its shadow ray: its lane and what it adds
+/// if the ray is unoccluded (before the throughput).
 #[derive(Debug, Clone, Copy)]
 struct Pending {
-    /// `f li` (the BSDF value, shadowing included, times the radiance).
-    f_li: Vec3,
-    /// The sample's direction (world; the shading frame gives it again
-    /// in local coordinates, the same bits).
-    wi: Vec3,
-    /// The light sample's density.
-    pdf: f32,
-    lane: u8,
-    /// Weighted by MIS (else weight 1: a delta light, or no MIS).
-    mis: bool,
+    lane: usize,
+    contribution: Vec3,
 }
 
 /// The corner normals `c` blended at barycentrics `(u, v)`, not normalised.
@@ -606,11 +596,8 @@ impl<'a> PathTracer<'a> {
         let mut sum = [Vec3::ZERO; BATCH];
         let mut shadow = [NO_RAY; BATCH];
         let mut pending = [Pending {
-            f_li: Vec3::ZERO,
-            wi: Vec3::Z,
-            pdf: 0.0,
             lane: 0,
-            mis: false,
+            contribution: Vec3::ZERO,
         }; BATCH];
         let mut occluded = [false; BATCH];
         let mut any = false;
@@ -648,13 +635,15 @@ impl<'a> PathTracer<'a> {
                 if f == Vec3::ZERO || ls.li == Vec3::ZERO {
                     continue;
                 }
+                let w = if delta_light || !mis {
+                    1.0
+                } else {
+                    power_heuristic(n_light, ls.pdf, 1.0, self.scatter_pdf(sh, wi_local, ls.wi))
+                };
                 shadow[n] = ls.shadow;
                 pending[n] = Pending {
-                    f_li: f * ls.li,
-                    wi: ls.wi,
-                    pdf: ls.pdf,
-                    lane: i as u8,
-                    mis: mis && !delta_light,
+                    lane: i,
+                    contribution: f * ls.li * (wi_local.z.abs() * w / ls.pdf),
                 };
                 n += 1;
             }
@@ -676,15 +665,7 @@ impl<'a> PathTracer<'a> {
             }
             for (p, &o) in pending[..n].iter().zip(&occluded[..n]) {
                 if !o {
-                    let lane = p.lane as usize;
-                    let Some(sh) = &shade[lane] else { continue };
-                    let wi_local = sh.frame.to_local(p.wi);
-                    let w = if p.mis {
-                        power_heuristic(n_light, p.pdf, 1.0, self.scatter_pdf(sh, wi_local, p.wi))
-                    } else {
-                        1.0
-                    };
-                    sum[lane] += p.f_li * (wi_local.z.abs() * w / p.pdf);
+                    sum[p.lane] += p.contribution;
                 }
             }
         }
