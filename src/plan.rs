@@ -454,13 +454,13 @@ impl Plan {
             "normal_map",
             mapped(|m| m.normal.is_some()),
             "materials with a normal_map",
-            "tangent-space normal lookup in a UV tangent frame, side checks against ng (integrator/path.rs, scene/maps.rs)",
+            "tangent-space normal lookup in a UV tangent frame, side checks against ng (integrator/path/mod.rs, scene/maps.rs)",
         );
         add(
             "bump_map",
             mapped(|m| m.bump.is_some()),
             "materials with a bump_map",
-            "height-gradient lookup, perturbed dp/du x dp/dv normal, side checks against ng (integrator/path.rs, texture.rs)",
+            "height-gradient lookup, perturbed dp/du x dp/dv normal, side checks against ng (integrator/path/mod.rs, texture.rs)",
         );
         add(
             "alpha_mask",
@@ -494,7 +494,7 @@ impl Plan {
             "emitter_roles",
             roles,
             "emitters with a role other than an area light's",
-            "panel lights sampled with MIS weight 1 and never hit (light/panel.rs); seen-only emission counted on camera rays and after delta bounces alone (integrator/path.rs)",
+            "panel lights sampled with MIS weight 1 and never hit (light/panel.rs); seen-only emission counted on camera rays and after delta bounces alone (integrator/path/mod.rs)",
         );
         add(
             "metallic_roughness",
