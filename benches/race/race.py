@@ -61,6 +61,7 @@ SCENES = {
     # hard lighting (issue 38), Mitsuba 3 XML that both renderers read as
     # it is: benches/race/hard/make_hard_scenes.py
     "door-ajar": ("benches/race/hard/door-ajar.xml", 128, 128),
+    "many-lights": ("benches/race/hard/many-lights.xml", 256, 256),
 }
 MITSUBA_SAMPLERS = ["independent", "ldsampler", "multijitter"]
 # Above this many samples per pixel (references) renders are not timed,

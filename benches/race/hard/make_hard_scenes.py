@@ -6,6 +6,11 @@ renderers read the same file:
   (15 degrees); the only light is a small ceiling panel in the far room, so
   the camera's room is lit through the gap alone (Veach's door scene,
   re-made here).
+- many-lights.xml: a town square at night: 400 lamps (small emissive
+  squares facing down, on a 20 x 20 grid over a floor of blocks) whose
+  powers span three decades (log-uniform from 1 to 1000, in a fixed
+  pseudo-random order), so choosing lights by power or by importance at
+  the shading point matters.
 
     python3 benches/race/hard/make_hard_scenes.py   # rewrites the .xml files
 
@@ -114,9 +119,57 @@ def door_ajar():
     return "\n".join(parts)
 
 
+def cube(centre, half, bsdf):
+    """A `cube` ([-1, 1]^3) scaled to half-extents `half` at `centre`."""
+    c = ", ".join(f"{v:g}" for v in centre)
+    h = ", ".join(f"{v:g}" for v in half)
+    return f"""    <shape type="cube">
+        <transform name="to_world"><scale value="{h}"/><translate value="{c}"/></transform>
+        <ref id="{bsdf}"/>
+    </shape>"""
+
+
+def many_lights():
+    parts = [header(256, 256, 64, 24, (0.0, 14.0, 16.0), (0.0, 0.0, 0.0), 50)]
+    parts.append("""    <bsdf type="twosided" id="ground">
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.5, 0.5, 0.5"/></bsdf>
+    </bsdf>
+    <bsdf type="twosided" id="block">
+        <bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.6, 0.5"/></bsdf>
+    </bsdf>
+    <bsdf type="diffuse" id="black">
+        <rgb name="reflectance" value="0, 0, 0"/>
+    </bsdf>""")
+    parts.append(quad((-12, 0, 12), (24, 0, 0), (0, 0, -24), "ground", comment="the ground"))
+    # a fixed linear congruential sequence: the same scene on every machine
+    state = 12345
+
+    def rand():
+        nonlocal state
+        state = (1103515245 * state + 12345) % (1 << 31)
+        return state / (1 << 31)
+
+    n = 20
+    for i in range(n):
+        for j in range(n):
+            x = -10 + 20 * (i + 0.5) / n
+            z = -10 + 20 * (j + 0.5) / n
+            power = 10 ** (3 * rand())
+            height = 0.6 + 1.4 * rand()
+            if (i % 4, j % 4) == (1, 1):
+                parts.append(cube((x + 0.5, 0.6, z + 0.5), (0.45, 0.6, 0.45), "block"))
+            # a 0.1 m square lamp facing down
+            parts.append(quad((x - 0.05, height, z - 0.05), (0.1, 0, 0), (0, 0, 0.1), "black",
+                              emitter=f"{power:.4g}, {0.8 * power:.4g}, {0.6 * power:.4g}"))
+    parts.append("</scene>\n")
+    return "\n".join(parts)
+
+
 def main():
     with open(os.path.join(HERE, "door-ajar.xml"), "w") as f:
         f.write(door_ajar())
+    with open(os.path.join(HERE, "many-lights.xml"), "w") as f:
+        f.write(many_lights())
 
 
 if __name__ == "__main__":
