@@ -333,11 +333,6 @@ impl GuideBuilder {
             }
         }
     }
-
-    /// Spatial leaves.
-    pub fn leaf_count(&self) -> usize {
-        self.leaves.len()
-    }
 }
 
 #[cfg(test)]

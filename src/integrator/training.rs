@@ -12,7 +12,7 @@
 
 use super::{BATCH, BLOCK, GuideVertex, Lane, PathTracer, RayCounts, take_recorded};
 use crate::camera::Camera;
-use crate::guiding::{Guide, GuideBuilder, GuidingMode, Record};
+use crate::guiding::{GuideBuilder, GuidingMode, Record};
 use crate::math::{Vec2, Vec3, luminance};
 use crate::sampler::{Sampler, mix64};
 use crate::scene::Scene;
@@ -342,7 +342,6 @@ fn train_view(
     let mut builder = GuideBuilder::new(bounds.min, bounds.max);
     let blocks = block_origins(resolution);
     let mut rays = RayCounts::default();
-    let mut guide: Option<Arc<Guide>> = None;
     tracer.set_guide(None);
     tracer.set_recording(true);
     for k in 0..settings.iterations {
@@ -383,13 +382,11 @@ fn train_view(
                 rays.add(r);
             }
         }
-        let g = Arc::new(builder.finish_iteration(k));
-        tracer.set_guide(Some(g.clone()));
-        guide = Some(g);
+        tracer.set_guide(Some(Arc::new(builder.finish_iteration(k))));
     }
     tracer.set_recording(false);
-    let (leaves, nodes) = guide
-        .as_deref()
+    let (leaves, nodes) = tracer
+        .guide()
         .map_or((0, 0), |g| (g.leaf_count(), g.node_count()));
     GuidingReport {
         mode: GuidingMode::On,
