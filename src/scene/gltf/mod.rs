@@ -84,6 +84,8 @@ impl Once {
 /// Load a `.gltf` or `.glb` scene.
 pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
     let bytes = super::read_bounded(path, MAX_SCENE_FILE_BYTES, super::Content::Magic(b"", ""))?;
+    glb_header_check(&bytes)
+        .map_err(|m| Error::input(path, None, format!("not a valid GLB file: {m}")))?;
     let gltf::Gltf { document, blob } = gltf::Gltf::from_slice_without_validation(&bytes)
         .map_err(|e| parse_error(path, &bytes, e))?;
     let root = document.into_json();
@@ -351,6 +353,23 @@ pub(super) fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
 /// accessors without a bounds check (gltf-json's `mesh.rs`), and its
 /// accessors unwrap an image's `uri` or `bufferView` (and a view's
 /// `mimeType`) and a camera's object of its `type`.
+/// A GLB's 12-byte header must give a total length of at least itself:
+/// the `gltf` crate (1.4.1) subtracts the header's size from that length
+/// unchecked, and panics on a smaller one (found by `tests/fuzz_loaders.rs`,
+/// seed 5562362430153967861).
+fn glb_header_check(bytes: &[u8]) -> std::result::Result<(), String> {
+    if !bytes.starts_with(b"glTF") || bytes.len() < 12 {
+        return Ok(());
+    }
+    let length = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
+    if length < 12 {
+        return Err(format!(
+            "the header gives a length of {length} bytes, less than the header's 12"
+        ));
+    }
+    Ok(())
+}
+
 fn precheck(root: &gltf::json::Root) -> std::result::Result<(), String> {
     for (m, mesh) in root.meshes.iter().enumerate() {
         for prim in &mesh.primitives {
@@ -581,4 +600,20 @@ fn read_mesh(
     out.uvs = uvs;
     out.normals = normals;
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::glb_header_check;
+
+    #[test]
+    fn a_glb_header_shorter_than_itself_is_refused_before_the_crate_sees_it() {
+        let mut bytes = b"glTF\x02\x00\x00\x00\x02\x00\x00\x00".to_vec();
+        bytes.extend_from_slice(b"\x0c\x09\x00\x00JSON{}");
+        let err = glb_header_check(&bytes).unwrap_err();
+        assert!(err.contains("length of 2 bytes"), "{err}");
+        bytes[8] = 12;
+        assert!(glb_header_check(&bytes).is_ok());
+        assert!(glb_header_check(b"{\"asset\":{}}").is_ok());
+    }
 }
