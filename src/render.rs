@@ -71,7 +71,18 @@ impl Radiance for PathTracer<'_> {
         PathTracer::camera_ray(self, camera, p, sampler)
     }
 
-    fn radiance_batch(&self, _: &[[u32; 2]], _: u32, lanes: &mut [Lane], rays: &mut RayCounts) {
+    fn radiance_batch(
+        &self,
+        pixels: &[[u32; 2]],
+        _: u32,
+        lanes: &mut [Lane],
+        rays: &mut RayCounts,
+    ) {
+        if let Some(g) = self.guide() {
+            for (&[x, y], lane) in pixels.iter().zip(lanes.iter_mut()) {
+                lane.set_roulette_scale(g.roulette_scale(x, y));
+            }
+        }
         self.trace(lanes, rays);
     }
 }

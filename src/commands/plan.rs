@@ -5,7 +5,7 @@ use crate::accel::{self, Backend};
 use crate::error::Result;
 use crate::guiding::GuidingMode;
 use crate::integrator::PathTracer;
-use crate::integrator::training::{AUTO_INDIRECT_SHARE, GUIDED_COST, GuidingReport, decide};
+use crate::integrator::training::{AUTO_INDIRECT_SHARE, GuidingReport, GuidingRequest, prepare};
 use crate::plan::Plan;
 use crate::scene::Scene;
 use crate::settings::{self, Flags, LightSampler};
@@ -26,13 +26,15 @@ pub struct PlanArgs {
     #[arg(long = "light-sampler", value_name = "auto|power|bvh")]
     light_sampler: Option<LightSampler>,
     /// Path guiding as `render --guiding` would decide it: auto runs the
-    /// render's pre-pass (at the scene's resolution and seed) and prints the
-    /// share of light it found arriving after the first bounce [default: auto].
+    /// render's pre-pass (at the scene's resolution, seed and samples) and
+    /// prints the share of light it found arriving after the first bounce,
+    /// and where that calls for a guide, trains it and prints the guided
+    /// pre-pass's variance and cost.
     #[arg(long, value_name = "auto|on|off", default_value_t = GuidingMode::Auto)]
     guiding: GuidingMode,
     /// Print JSON: `effects` (the names that are on), `kernel`, `details`,
     /// `guiding` (`mode`, `on`, `indirect_share`, `threshold`,
-    /// `second_moment_ratio`, `guided_cost`).
+    /// `variance_ratio`, `cost_ratio`).
     #[arg(long)]
     json: bool,
 }
@@ -56,8 +58,8 @@ pub fn run(args: PlanArgs) -> Result<()> {
             "on": guiding.on,
             "indirect_share": guiding.auto.map(|m| m.indirect_share),
             "threshold": AUTO_INDIRECT_SHARE,
-            "second_moment_ratio": guiding.auto.and_then(|m| m.second_moment_ratio),
-            "guided_cost": GUIDED_COST,
+            "variance_ratio": guiding.auto.and_then(|m| m.variance_ratio),
+            "cost_ratio": guiding.auto.and_then(|m| m.cost_ratio),
         });
         println!("{v}");
     } else {
@@ -68,8 +70,9 @@ pub fn run(args: PlanArgs) -> Result<()> {
     Ok(())
 }
 
-/// `render --guiding`'s decision for the scene at its own resolution and
-/// seed (the pre-pass only: no training).
+/// `render --guiding`'s decision for the scene at its own resolution, seed
+/// and samples: the pre-pass and, where its share of indirect light calls
+/// for it, the training and the guided pre-pass.
 fn decide_guiding(
     scene: &Scene,
     settings: &settings::Settings,
@@ -87,19 +90,12 @@ fn decide_guiding(
     let kernel = Plan::new(scene, &settings.integrator).kernel;
     let mut tracer = PathTracer::with_kernel(scene, accel.as_ref(), settings.integrator, kernel);
     let pool = crate::render::thread_pool(settings.threads)?;
-    let (on, measure, seconds) = decide(
-        &mut tracer,
-        scene,
-        &camera,
-        settings.resolution,
-        settings.seed,
+    let request = GuidingRequest {
         mode,
-        &pool,
-    );
-    Ok(GuidingReport {
-        on,
-        auto: measure,
-        prepass_seconds: seconds,
-        ..GuidingReport::off(mode)
-    })
+        resolution: settings.resolution,
+        seed: settings.seed,
+        spp: settings.spp,
+        progressive: false,
+    };
+    Ok(prepare(&mut tracer, scene, &camera, &request, &pool))
 }

@@ -12,7 +12,7 @@
 
 use super::{BATCH, BLOCK, GuideVertex, Lane, PathTracer, RayCounts, take_recorded};
 use crate::camera::Camera;
-use crate::guiding::{GuideBuilder, GuidingMode, Record};
+use crate::guiding::{GuideBuilder, GuidingMode, PixelEstimate, Record};
 use crate::math::{Vec2, Vec3, luminance};
 use crate::sampler::{Sampler, mix64};
 use crate::scene::Scene;
@@ -116,9 +116,9 @@ impl GuidingReport {
                 100.0 * m.indirect_share,
                 100.0 * AUTO_INDIRECT_SHARE
             );
-            if let Some(r) = m.second_moment_ratio {
+            if let (Some(v), Some(c)) = (m.variance_ratio, m.cost_ratio) {
                 s += &format!(
-                    "; guided, its samples' second moment is {r:.2}x (auto guides below 1 / {GUIDED_COST})"
+                    "; guided, its variance is {v:.2}x at {c:.2}x the time per sample (auto guides when the product is below 1)"
                 );
             }
             s
@@ -147,71 +147,96 @@ pub struct AutoMeasure {
     /// The unguided pre-pass's share of light arriving after the first
     /// non-delta bounce.
     pub indirect_share: f64,
-    /// The guided pre-pass's mean squared sample luminance over the
-    /// unguided one's (`None` when the share alone said no).
-    pub second_moment_ratio: Option<f64>,
+    /// The guided pre-pass's variance over the unguided one's: the sum over
+    /// the pixels of each pixel's sample variance (luminance), `None` when
+    /// the share alone said no.
+    pub variance_ratio: Option<f64>,
+    /// A guided sample's predicted time over an unguided one's
+    /// ([`guided_cost`]), `None` when the share alone said no.
+    pub cost_ratio: Option<f64>,
 }
 
-/// `auto` guides only where the guided estimator's variance per sample,
-/// times this, is below the unguided one's: a guided render's time over
-/// an unguided one's at equal samples, its training included. Measured:
-/// `benches/race/hard/door-ajar.xml`, 256 spp, one thread, 2-core AMD EPYC
-/// (AVX-512): 9.26 s unguided; guided 12.63 s of rendering (1.36x) plus
-/// 3.49 s of training (63 spp).
-pub const GUIDED_COST: f64 = 1.7;
+/// A guided path's time per ray over an unguided path's: the guide's
+/// lookups, its sampling and densities, and adjoint-driven roulette.
+/// Measured: `benches/race/hard/door-ajar.xml`, 256 spp, 2 threads, 2-core
+/// AMD EPYC (AVX-512): unguided 40.3 M rays in 4.37 s; guided 58.7 M rays
+/// in 11.1 s of rendering after 3.1 s of training, 1.74x per ray.
+pub const GUIDED_RAY_COST: f64 = 1.74;
 
-/// Training iterations of `auto`'s guided pre-pass (`1 + 2 + 4` spp at the
-/// pre-pass's size).
-const AUTO_ITERATIONS: u32 = 3;
+/// A guided sample's predicted time over an unguided one's, once the guide
+/// is trained: the rays per sample of the two pre-passes (`ray_ratio`,
+/// guided over unguided; adjoint-driven roulette keeps the paths that
+/// matter longer) times [`GUIDED_RAY_COST`].
+pub fn guided_cost(ray_ratio: f64) -> f64 {
+    ray_ratio * GUIDED_RAY_COST
+}
 
-/// Decide, for `mode`, whether to guide: `on` and `off` as they say; `auto`
-/// by a pre-pass of [`PREPASS_SPP`] samples per pixel at most
+/// Decide, for the request's mode, whether to guide: `on` and `off` as they
+/// say; `auto` by a pre-pass of [`PREPASS_SPP`] samples per pixel at most
 /// [`PREPASS_SIDE`] pixels a side. When at least [`AUTO_INDIRECT_SHARE`] of
-/// its light arrives after the first bounce, a guide is trained on the
-/// pre-pass's pixels and the pre-pass is repeated with it: guiding is on
-/// when its mean squared sample luminance times [`GUIDED_COST`] is below
-/// the unguided one (the pixels' means are the same, so the second moments
-/// differ by exactly the variances). Every number is a function of the
-/// scene, the settings and the seed, so the decision is too. Returns the
-/// decision, the measurements and the time.
-pub fn decide(
+/// its light arrives after the first bounce, the render's guide is trained
+/// (all of it: a guide trained on fewer paths predicts too little, see
+/// `docs/guide/guiding.md`) and the pre-pass is repeated with it. Guiding
+/// is on when the guided pre-pass's variance (each pixel's sample variance,
+/// summed), times its predicted cost per sample ([`guided_cost`], the
+/// training already spent), is below the unguided one's: when the rest of
+/// the render reaches a lower error in the same time. Every number, ray
+/// counts included, is a function of the scene, the settings and the seed,
+/// so the decision is too. The tracer is left with the guide when guiding
+/// is on (and none otherwise); the report counts the pre-passes' time and
+/// the training's, whether kept or not.
+pub fn prepare(
     tracer: &mut PathTracer<'_>,
     scene: &Scene,
     camera: &Camera,
-    resolution: [u32; 2],
-    seed: u64,
-    mode: GuidingMode,
+    request: &GuidingRequest,
     pool: &rayon::ThreadPool,
-) -> (bool, Option<AutoMeasure>, f64) {
-    match mode {
-        GuidingMode::On => (true, None, 0.0),
-        GuidingMode::Off => (false, None, 0.0),
+) -> GuidingReport {
+    let train_full = |tracer: &mut PathTracer<'_>| {
+        let settings = request.train_settings();
+        train(tracer, scene, camera, request.resolution, settings, pool)
+    };
+    let report = match request.mode {
+        GuidingMode::Off => GuidingReport::off(GuidingMode::Off),
+        GuidingMode::On => train_full(tracer),
         GuidingMode::Auto => {
             let t = Instant::now();
-            let view = PrepassView::new(resolution);
-            let plain = prepass(tracer, camera, &view, seed, pool);
+            let view = PrepassView::new(request.resolution);
+            let plain = prepass(tracer, camera, &view, request.seed, pool);
             let mut measure = AutoMeasure {
                 indirect_share: plain.share,
-                second_moment_ratio: None,
+                variance_ratio: None,
+                cost_ratio: None,
             };
-            if plain.share < AUTO_INDIRECT_SHARE || !(plain.second_moment > 0.0) {
-                return (false, Some(measure), t.elapsed().as_secs_f64());
+            if plain.share < AUTO_INDIRECT_SHARE || !(plain.variance > 0.0) {
+                return GuidingReport {
+                    auto: Some(measure),
+                    prepass_seconds: t.elapsed().as_secs_f64(),
+                    ..GuidingReport::off(GuidingMode::Auto)
+                };
             }
-            let settings = TrainSettings {
-                iterations: AUTO_ITERATIONS,
-                seed,
-            };
-            train_view(tracer, scene, camera, &view, settings, pool);
-            let guided = prepass(tracer, camera, &view, seed, pool);
-            tracer.set_guide(None);
-            let ratio = guided.second_moment / plain.second_moment;
-            measure.second_moment_ratio = Some(ratio);
-            (
-                ratio * GUIDED_COST < 1.0,
-                Some(measure),
-                t.elapsed().as_secs_f64(),
-            )
+            let prepass_seconds = t.elapsed().as_secs_f64();
+            let trained = train_full(tracer);
+            let t = Instant::now();
+            let guided = prepass(tracer, camera, &view, request.seed, pool);
+            let variance = guided.variance / plain.variance;
+            let cost = guided_cost(guided.rays as f64 / plain.rays.max(1) as f64);
+            measure.variance_ratio = Some(variance);
+            measure.cost_ratio = Some(cost);
+            GuidingReport {
+                on: variance * cost < 1.0,
+                auto: Some(measure),
+                prepass_seconds: prepass_seconds + t.elapsed().as_secs_f64(),
+                ..trained
+            }
         }
+    };
+    if !report.on {
+        tracer.set_guide(None);
+    }
+    GuidingReport {
+        mode: request.mode,
+        ..report
     }
 }
 
@@ -242,8 +267,10 @@ struct Prepass {
     /// Share of the light (luminance) arriving after the first non-delta
     /// bounce.
     share: f64,
-    /// Mean squared luminance of the samples.
-    second_moment: f64,
+    /// The pixels' sample variances (luminance), summed.
+    variance: f64,
+    /// Rays traced.
+    rays: u64,
 }
 
 /// [`PREPASS_SPP`] samples per pixel of `view` with the tracer as it is
@@ -258,12 +285,14 @@ fn prepass(
     tracer.set_recording(true);
     let shared: &PathTracer<'_> = tracer;
     let blocks = block_origins(view.resolution);
-    let sums: Vec<[f64; 4]> = pool.install(|| {
+    let sums: Vec<([f64; 3], u64)> = pool.install(|| {
         blocks
             .par_iter()
             .map(|&origin| {
-                // total, after the first bounce, squares, samples
-                let mut sum = [0.0f64; 4];
+                // per lane (pixel): sum and sum of squares of its samples
+                let mut pixel = [[0.0f64; 2]; BATCH];
+                // total, after the first bounce
+                let mut light = [0.0f64; 2];
                 let mut rays = RayCounts::default();
                 for s in 0..PREPASS_SPP {
                     let mut lanes = block_lanes(
@@ -276,29 +305,40 @@ fn prepass(
                         view.stretch,
                     );
                     let vertices = trace_recorded(shared, &mut lanes, &mut rays);
-                    for (lane, vertices) in lanes.iter().zip(&vertices) {
-                        sum[3] += 1.0;
-                        if !lane.l.is_finite() {
-                            continue;
-                        }
-                        let y = luminance(lane.l.max(Vec3::ZERO)) as f64;
-                        sum[0] += y;
-                        sum[2] += y * y;
-                        if let Some(v) = vertices.first() {
-                            sum[1] += luminance((lane.l - v.l).max(Vec3::ZERO)) as f64;
+                    for (j, (lane, vertices)) in lanes.iter().zip(&vertices).enumerate() {
+                        // a non-finite sample counts as black, as the film
+                        // leaves it out
+                        let l = if lane.l.is_finite() {
+                            lane.l.max(Vec3::ZERO)
+                        } else {
+                            Vec3::ZERO
+                        };
+                        let y = luminance(l) as f64;
+                        pixel[j][0] += y;
+                        pixel[j][1] += y * y;
+                        light[0] += y;
+                        if let Some(v) = vertices.first().filter(|_| lane.l.is_finite()) {
+                            light[1] += luminance((lane.l - v.l).max(Vec3::ZERO)) as f64;
                         }
                     }
                 }
-                sum
+                let n = PREPASS_SPP as f64;
+                let variance: f64 = pixel
+                    .iter()
+                    .map(|&[sum, sq]| ((sq - sum * sum / n) / (n - 1.0)).max(0.0))
+                    .sum();
+                ([light[0], light[1], variance], rays.total())
             })
             .collect()
     });
     tracer.set_recording(false);
-    let mut total = [0.0f64; 4];
-    for s in &sums {
-        for k in 0..4 {
+    let mut total = [0.0f64; 3];
+    let mut rays = 0;
+    for (s, r) in &sums {
+        for k in 0..3 {
             total[k] += s[k];
         }
+        rays += r;
     }
     Prepass {
         share: if total[0] > 0.0 {
@@ -306,7 +346,8 @@ fn prepass(
         } else {
             0.0
         },
-        second_moment: total[2] / total[3].max(1.0),
+        variance: total[2],
+        rays,
     }
 }
 
@@ -342,6 +383,9 @@ fn train_view(
     let mut builder = GuideBuilder::new(bounds.min, bounds.max);
     let blocks = block_origins(resolution);
     let mut rays = RayCounts::default();
+    // every iteration's samples per pixel: luminance sum, count
+    let n_pixels = resolution[0] as usize * resolution[1] as usize;
+    let mut pixel_sums = vec![(0.0f64, 0u32); n_pixels];
     tracer.set_guide(None);
     tracer.set_recording(true);
     for k in 0..settings.iterations {
@@ -349,12 +393,11 @@ fn train_view(
         let seed = mix64(settings.seed ^ mix64(0x6e1d_e000 + k as u64));
         let shared: &PathTracer<'_> = tracer;
         for chunk in blocks.chunks(CHUNK_BLOCKS) {
-            let records: Vec<(Vec<Record>, RayCounts)> = pool.install(|| {
+            let records: Vec<BlockRecords> = pool.install(|| {
                 chunk
                     .par_iter()
                     .map(|&origin| {
-                        let mut out = Vec::new();
-                        let mut r = RayCounts::default();
+                        let mut out = BlockRecords::default();
                         for s in 0..spp {
                             let mut lanes = block_lanes(
                                 shared,
@@ -365,24 +408,37 @@ fn train_view(
                                 seed,
                                 view.stretch,
                             );
-                            let vertices = trace_recorded(shared, &mut lanes, &mut r);
-                            for (lane, vertices) in lanes.iter().zip(&vertices) {
+                            let vertices = trace_recorded(shared, &mut lanes, &mut out.rays);
+                            for (j, (lane, vertices)) in lanes.iter().zip(&vertices).enumerate() {
                                 if !lane.l.is_finite() {
                                     continue;
                                 }
-                                out.extend(vertices.iter().filter_map(|v| v.record(lane.l)));
+                                let y = luminance(lane.l.max(Vec3::ZERO));
+                                out.pixels.push((block_pixel(resolution, origin, j), y));
+                                out.records
+                                    .extend(vertices.iter().filter_map(|v| v.record(lane.l)));
                             }
                         }
-                        (out, r)
+                        out
                     })
                     .collect()
             });
-            for (rec, r) in &records {
-                builder.deposit(rec);
-                rays.add(r);
+            for block in &records {
+                builder.deposit(&block.records);
+                rays.add(&block.rays);
+                for &(p, y) in &block.pixels {
+                    let e = &mut pixel_sums[p];
+                    e.0 += y as f64;
+                    e.1 += 1;
+                }
             }
         }
-        tracer.set_guide(Some(Arc::new(builder.finish_iteration(k))));
+        let pixels = PixelEstimate {
+            resolution,
+            mean: box_filtered(&pixel_sums, resolution),
+        };
+        let guide = builder.finish_iteration(k).with_pixels(pixels);
+        tracer.set_guide(Some(Arc::new(guide)));
     }
     tracer.set_recording(false);
     let (leaves, nodes) = tracer
@@ -400,6 +456,55 @@ fn train_view(
         leaves,
         nodes,
     }
+}
+
+/// The pixels' estimates for adjoint-driven roulette: the mean of the
+/// samples within [`ESTIMATE_RADIUS`] pixels (a square), from per-pixel
+/// `(sum, count)`. A few training samples leave most pixels of a dim,
+/// indirectly lit image black or with one lucky path; their neighbours'
+/// samples give an estimate that is rarely 0 and less noisy.
+fn box_filtered(sums: &[(f64, u32)], resolution: [u32; 2]) -> Vec<f32> {
+    let [w, h] = resolution.map(|v| v as usize);
+    let r = ESTIMATE_RADIUS;
+    let mut out = vec![0.0f32; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let (mut sum, mut n) = (0.0f64, 0u64);
+            for yy in y.saturating_sub(r)..(y + r + 1).min(h) {
+                for xx in x.saturating_sub(r)..(x + r + 1).min(w) {
+                    let (s, c) = sums[yy * w + xx];
+                    sum += s;
+                    n += c as u64;
+                }
+            }
+            if n > 0 {
+                out[y * w + x] = (sum / n as f64) as f32;
+            }
+        }
+    }
+    out
+}
+
+/// The half-width of the square over which [`box_filtered`] averages.
+const ESTIMATE_RADIUS: usize = 2;
+
+/// What one pixel block's training samples left.
+#[derive(Default)]
+struct BlockRecords {
+    /// The records, in the order of the samples and their bounces.
+    records: Vec<Record>,
+    /// (pixel index, luminance) of each finite sample.
+    pixels: Vec<(usize, f32)>,
+    rays: RayCounts,
+}
+
+/// The index (row-major) of the `j`-th pixel of the block at `origin`, in
+/// [`block_lanes`]' order.
+fn block_pixel(resolution: [u32; 2], origin: [u32; 2], j: usize) -> usize {
+    let w = resolution[0];
+    let bw = (origin[0] + BLOCK).min(w) - origin[0];
+    let (dx, dy) = (j as u32 % bw, j as u32 / bw);
+    ((origin[1] + dy) * w + origin[0] + dx) as usize
 }
 
 /// Trace one batch (at most [`BATCH`] lanes) with the tracer recording,
@@ -449,7 +554,12 @@ fn block_lanes(
             let mut sampler = Sampler::new(seed, pixel, s as u64);
             let p = (Vec2::new(x as f32, y as f32) + sampler.next_2d()) * stretch;
             let ray = tracer.camera_ray(camera, p, &mut sampler);
-            lanes.push(Lane::new(sampler, ray));
+            let mut lane = Lane::new(sampler, ray);
+            if let Some(g) = tracer.guide() {
+                // the guide's pixel estimates are the render's film's
+                lane.set_roulette_scale(g.roulette_scale(p.x as u32, p.y as u32));
+            }
+            lanes.push(lane);
         }
     }
     lanes
@@ -471,51 +581,18 @@ pub struct GuidingRequest {
     pub progressive: bool,
 }
 
-/// Decide and, when guiding, train on `pool`: the tracer is left with its
-/// guide set (or none). The report's times count the pre-pass and the
-/// training.
-pub fn prepare(
-    tracer: &mut PathTracer<'_>,
-    scene: &Scene,
-    camera: &Camera,
-    request: &GuidingRequest,
-    pool: &rayon::ThreadPool,
-) -> GuidingReport {
-    if request.mode == GuidingMode::Off {
-        tracer.set_guide(None);
-        return GuidingReport::off(GuidingMode::Off);
-    }
-    let (on, measure, prepass_seconds) = decide(
-        tracer,
-        scene,
-        camera,
-        request.resolution,
-        request.seed,
-        request.mode,
-        pool,
-    );
-    if !on {
-        tracer.set_guide(None);
-        return GuidingReport {
-            auto: measure,
-            prepass_seconds,
-            ..GuidingReport::off(request.mode)
+impl GuidingRequest {
+    /// The training the render runs: [`TrainSettings::iterations_for`] its
+    /// samples, or [`PROGRESSIVE_ITERATIONS`].
+    pub fn train_settings(&self) -> TrainSettings {
+        let iterations = if self.progressive {
+            PROGRESSIVE_ITERATIONS
+        } else {
+            TrainSettings::iterations_for(self.spp)
         };
-    }
-    let iterations = if request.progressive {
-        PROGRESSIVE_ITERATIONS
-    } else {
-        TrainSettings::iterations_for(request.spp)
-    };
-    let settings = TrainSettings {
-        iterations,
-        seed: request.seed,
-    };
-    let report = train(tracer, scene, camera, request.resolution, settings, pool);
-    GuidingReport {
-        mode: request.mode,
-        auto: measure,
-        prepass_seconds,
-        ..report
+        TrainSettings {
+            iterations,
+            seed: self.seed,
+        }
     }
 }

@@ -119,9 +119,11 @@ pub struct RenderArgs {
     /// light BVH, by importance at the shading point) [default: auto].
     #[arg(long = "light-sampler", value_name = "auto|power|bvh")]
     light_sampler: Option<LightSampler>,
-    /// Path guiding: auto (guided when a pre-pass finds most of the light
-    /// arriving after the first bounce), on or off. A guided render first
-    /// trains the guide over 1, 2, 4, ... spp (a quarter of -s) [default: auto].
+    /// Path guiding: auto (where a pre-pass finds most of the light arriving
+    /// after the first bounce, the guide is trained and kept if a guided
+    /// pre-pass reaches a lower error in the same time), on or off. A guided
+    /// render first trains the guide over 1, 2, 4, ... spp (a quarter of
+    /// -s), and its Russian roulette is adjoint-driven.
     #[arg(long, value_name = "auto|on|off", default_value_t = GuidingMode::Auto)]
     guiding: GuidingMode,
     /// Write a JSON report of the run.

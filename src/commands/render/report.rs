@@ -130,10 +130,15 @@ pub struct GuidingSummary {
     /// non-delta bounce (absent for `on` and `off`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub indirect_share: Option<f64>,
-    /// `auto`'s guided pre-pass: its samples' mean squared luminance over
-    /// the unguided pre-pass's (absent where the share alone decided).
+    /// `auto`'s guided pre-pass: its variance (the pixels' sample
+    /// variances, summed) over the unguided pre-pass's (absent where the
+    /// share alone decided).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub second_moment_ratio: Option<f64>,
+    pub variance_ratio: Option<f64>,
+    /// `auto`'s predicted time per guided sample over an unguided one's,
+    /// training included (absent where the share alone decided).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cost_ratio: Option<f64>,
     /// The pre-pass's seconds.
     pub prepass_seconds: f64,
     /// Training iterations (1, 2, 4, ... spp).
@@ -157,7 +162,8 @@ impl GuidingSummary {
             mode: g.mode.to_string(),
             on: g.on,
             indirect_share: g.auto.map(|m| m.indirect_share),
-            second_moment_ratio: g.auto.and_then(|m| m.second_moment_ratio),
+            variance_ratio: g.auto.and_then(|m| m.variance_ratio),
+            cost_ratio: g.auto.and_then(|m| m.cost_ratio),
             prepass_seconds: g.prepass_seconds,
             iterations: g.iterations,
             train_spp: g.train_spp,

@@ -2,7 +2,7 @@
 //! mixture of the BSDF and the guide, its density, and the bounces a
 //! guide's training records.
 
-use super::{KernelBsdf, Shade};
+use super::{KernelBsdf, Lane, Shade};
 use crate::integrator::PathTracer;
 use crate::math::{Vec2, Vec3};
 
@@ -32,8 +32,9 @@ pub fn take_recorded() -> Vec<(u32, GuideVertex)> {
 }
 
 /// A bounce of a path, as guiding's training records it: the radiance
-/// that arrived along `dir` is `(l_end - l) / beta`, with `l_end` the
-/// path's radiance at its end.
+/// that arrived along `dir` is `(l_end - l) / beta`, and the radiance that
+/// left towards the path's previous vertex `(l_end - l_in) / beta_in`, with
+/// `l_end` the path's radiance at its end.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GuideVertex {
     /// Where the bounce was.
@@ -48,6 +49,11 @@ pub struct GuideVertex {
     pub beta: Vec3,
     /// Radiance the path had gathered when it sampled the direction.
     pub l: Vec3,
+    /// Throughput that arrived at the bounce (after its roulette).
+    pub beta_in: Vec3,
+    /// Radiance the path had gathered when it arrived (emission seen here
+    /// included, light sampled here not).
+    pub l_in: Vec3,
 }
 
 impl GuideVertex {
@@ -55,19 +61,65 @@ impl GuideVertex {
     /// the incident radiance's luminance over the sampling density, or
     /// `None` where it is not finite.
     pub fn record(&self, l_end: Vec3) -> Option<crate::guiding::Record> {
-        let diff = l_end - self.l;
-        let li = Vec3::select(self.beta.cmpgt(Vec3::ZERO), diff / self.beta, Vec3::ZERO);
-        let value = crate::math::luminance(li.max(Vec3::ZERO)) / self.pdf;
+        let value = radiance_over(l_end - self.l, self.beta) / self.pdf;
+        let radiance = radiance_over(l_end - self.l_in, self.beta_in);
         value.is_finite().then_some(crate::guiding::Record {
             p: self.p,
             n: self.n,
             dir: self.dir,
             value,
+            radiance: if radiance.is_finite() { radiance } else { -1.0 },
         })
     }
 }
 
+/// The luminance of radiance `gathered` over throughput `beta`, channel by
+/// channel (0 in a channel the throughput does not carry).
+fn radiance_over(gathered: Vec3, beta: Vec3) -> f32 {
+    let l = Vec3::select(beta.cmpgt(Vec3::ZERO), gathered / beta, Vec3::ZERO);
+    crate::math::luminance(l.max(Vec3::ZERO))
+}
+
+/// Adjoint-driven Russian roulette (Vorba and Křivánek 2016, without
+/// their splitting): the probability that `lane`, arriving where the guide
+/// estimates the outgoing radiance's luminance at `radiance`, goes on. Its
+/// expected contribution, throughput times that radiance, is set against
+/// the window below its pixel's estimate ([`crate::guiding::WEIGHT_WINDOW`]):
+/// at or above the window's floor the path goes on, below it in
+/// proportion, never with less than [`crate::guiding::ROULETTE_FLOOR`].
+/// Paths that still matter live as long as they matter, whatever their
+/// depth; paths that no longer can end early. Unbiased: a survivor's
+/// throughput is divided by the probability.
+#[inline]
+pub(super) fn adjoint_roulette(lane: &Lane, radiance: f32) -> f32 {
+    let expected = crate::math::luminance(lane.beta) * radiance * lane.roulette_scale;
+    if expected.is_nan() {
+        return crate::guiding::ROULETTE_FLOOR;
+    }
+    expected.clamp(crate::guiding::ROULETTE_FLOOR, 1.0)
+}
+
+impl Lane {
+    /// Set adjoint-driven roulette's factor for the lane's pixel
+    /// ([`crate::guiding::Guide::roulette_scale`]; 0, the default: roulette
+    /// by the settings' rule).
+    pub fn set_roulette_scale(&mut self, scale: f32) {
+        self.roulette_scale = scale;
+    }
+}
+
 impl PathTracer<'_> {
+    /// The guide's estimate of the radiance leaving guide leaf `leaf`, for
+    /// [`adjoint_roulette`]: `None` when the render is not guided, the
+    /// lane's pixel has no estimate, or no training path said.
+    #[inline]
+    pub(super) fn adjoint_radiance(&self, lane: &Lane, leaf: Option<u32>) -> Option<f32> {
+        match (&self.guide, leaf) {
+            (Some(g), Some(l)) if lane.roulette_scale > 0.0 => g.leaf_radiance(l),
+            _ => None,
+        }
+    }
+
     /// The density with which [`PathTracer::scatter`] samples `wi` (local
     /// frame; `wi_world` in the world): the BSDF's, or at a guided bounce
     /// the mixture's of the BSDF and the guide.
@@ -134,5 +186,45 @@ impl PathTracer<'_> {
             delta: false,
         }
         .checked()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::guiding::{ROULETTE_FLOOR, WEIGHT_WINDOW};
+    use crate::math::Ray;
+    use crate::sampler::Sampler;
+
+    fn lane(beta: f32, scale: f32) -> Lane {
+        let ray = Ray {
+            o: Vec3::ZERO,
+            d: Vec3::Z,
+            t_max: 1.0,
+        };
+        let mut l = Lane::new(Sampler::new(1, 0, 0), ray);
+        l.beta = Vec3::splat(beta);
+        l.set_roulette_scale(scale);
+        l
+    }
+
+    #[test]
+    fn adjoint_roulette_keeps_what_matters_and_thins_the_rest_in_proportion() {
+        // pixel estimate 0.5: the window's floor is 2 / (1 + s) of it
+        let scale = (1.0 + WEIGHT_WINDOW) / (2.0 * 0.5);
+        let floor = 0.5 * 2.0 / (1.0 + WEIGHT_WINDOW);
+        // expected contribution at or above the floor: always goes on
+        assert_eq!(adjoint_roulette(&lane(1.0, scale), floor), 1.0);
+        assert_eq!(adjoint_roulette(&lane(0.5, scale), 4.0 * floor), 1.0);
+        // below it: in proportion
+        let q = adjoint_roulette(&lane(0.25, scale), floor);
+        assert!((q - 0.25).abs() < 1e-5, "{q}");
+        // never below the floor, whatever the estimate says (0 included)
+        assert_eq!(adjoint_roulette(&lane(1e-6, scale), floor), ROULETTE_FLOOR);
+        assert_eq!(adjoint_roulette(&lane(1.0, scale), 0.0), ROULETTE_FLOOR);
+        assert_eq!(
+            adjoint_roulette(&lane(1.0, scale), f32::NAN),
+            ROULETTE_FLOOR
+        );
     }
 }

@@ -32,8 +32,8 @@ use crate::settings::{DirectStrategy, Roulette};
 use std::marker::PhantomData;
 
 mod guided;
-use guided::record;
 pub use guided::{GuideVertex, take_recorded};
+use guided::{adjoint_roulette, record};
 
 /// Paths traced together: a 4 x 4 block of pixels, the width of Embree's
 /// widest packet.
@@ -61,6 +61,10 @@ pub struct Lane {
     alive: bool,
     /// The scattering event that sent `ray`, for the emission it finds.
     prev: Prev,
+    /// Adjoint-driven roulette's factor for this lane's pixel
+    /// ([`crate::guiding::Guide::roulette_scale`]); 0: roulette by the
+    /// settings' rule.
+    roulette_scale: f32,
 }
 
 /// What the emission a BSDF-sampled ray finds is weighted with.
@@ -97,6 +101,7 @@ impl Lane {
                     n: Vec3::Z,
                 },
             },
+            roulette_scale: 0.0,
         }
     }
 }
@@ -184,6 +189,9 @@ struct Shade<B> {
     /// delta lobe and the leaf has learned something
     /// ([`crate::guiding`]).
     guide: Option<u32>,
+    /// The lane's radiance when it arrived here, for guiding's training
+    /// ([`GuideVertex::l_in`]).
+    l_in: Vec3,
 }
 
 impl<B> Shade<B> {
@@ -395,7 +403,11 @@ impl<'a> PathTracer<'a> {
                 lane.alive = false;
                 return None;
             }
-            return Some(self.shading_point::<B, MATERIALS, SHAPES>(its));
+            let leaf = self.guide.as_ref().map(|g| g.leaf_index(its.sp.p, its.ng));
+            return Some(Shade {
+                l_in: lane.l,
+                ..self.shading_point::<B, MATERIALS, SHAPES>(its, leaf)
+            });
         }
 
         // --- emission found by the last BSDF sample (the other half of
@@ -443,7 +455,19 @@ impl<'a> PathTracer<'a> {
             lane.alive = false;
             return None;
         }
-        if lane.depth >= self.settings.rr_depth {
+        // adjoint-driven where the guide estimates this point's radiance
+        // and the pixel's ([`adjoint_roulette`]), else the settings' rule
+        let leaf = self.guide.as_ref().map(|g| g.leaf_index(its.sp.p, its.ng));
+        if let Some(radiance) = self.adjoint_radiance(lane, leaf) {
+            // the number is drawn whatever q is, so every bounce draws as
+            // many as the last
+            let q = adjoint_roulette(lane, radiance);
+            if lane.sampler.next_1d() >= q {
+                lane.alive = false;
+                return None;
+            }
+            lane.beta /= q;
+        } else if lane.depth >= self.settings.rr_depth {
             let q = match self.settings.roulette {
                 Roulette::Throughput => {
                     let b = if MATERIALS {
@@ -463,14 +487,19 @@ impl<'a> PathTracer<'a> {
             lane.beta /= q;
         }
         debug_assert!(lane.beta.is_finite(), "throughput became {}", lane.beta);
-        Some(self.shading_point::<B, MATERIALS, SHAPES>(its))
+        Some(Shade {
+            l_in: lane.l,
+            ..self.shading_point::<B, MATERIALS, SHAPES>(its, leaf)
+        })
     }
 
-    /// The BSDF, frame and ray origin of a bounce at `its`.
+    /// The BSDF, frame and ray origin of a bounce at `its`, whose guide
+    /// leaf is `leaf` when the render is guided.
     #[inline(always)]
     fn shading_point<B: KernelBsdf, const MATERIALS: bool, const SHAPES: bool>(
         &self,
         its: Interaction,
+        leaf: Option<u32>,
     ) -> Shade<B> {
         // without spheres every primitive is a triangle: no dispatch
         let m = if SHAPES {
@@ -497,8 +526,8 @@ impl<'a> PathTracer<'a> {
                 let n = self.unperturbed_normal(&its);
                 (n, shadowing_alpha2(n, its.ns))
             });
-        let guide = match &self.guide {
-            Some(g) if !bsdf.has_delta_component() => g.leaf_at(its.sp.p, its.ng),
+        let guide = match (&self.guide, leaf) {
+            (Some(g), Some(l)) if !bsdf.has_delta_component() && g.leaf(l).is_usable() => Some(l),
             _ => None,
         };
         Shade {
@@ -510,6 +539,7 @@ impl<'a> PathTracer<'a> {
             from,
             shadowing,
             guide,
+            l_in: Vec3::ZERO,
         }
     }
 
@@ -660,6 +690,7 @@ impl<'a> PathTracer<'a> {
             delta: DELTA && bs.delta,
             from: sh.from.unwrap_or(its.sp),
         };
+        let beta_in = lane.beta;
         lane.beta *= weight;
         if self.record && !bs.delta {
             record(
@@ -671,6 +702,8 @@ impl<'a> PathTracer<'a> {
                     pdf: bs.pdf,
                     beta: lane.beta,
                     l: lane.l,
+                    beta_in,
+                    l_in: sh.l_in,
                 },
             );
         }
@@ -904,7 +937,7 @@ impl<'a> PathTracer<'a> {
             first.get_or_insert_with(|| (its.ns, its.sp.p, (its.sp.p - camera_ray.o).length()));
             let le = self.emitted(&its);
             emitted.get_or_insert(le);
-            let sh = self.shading_point::<Bsdf, true, true>(its);
+            let sh = self.shading_point::<Bsdf, true, true>(its, None);
             if !sh.bsdf.is_delta() {
                 // an emitter reports its emission too, clamped as the
                 // environment's is: its edge against a surface of the same
