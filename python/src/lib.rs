@@ -21,6 +21,7 @@
 
 #![deny(unsafe_code)]
 
+use embertrace::guiding::GuidingMode;
 use embertrace::plan::Plan;
 use embertrace::scene::LoadOptions;
 use embertrace::settings::{self, Flags};
@@ -80,6 +81,7 @@ struct Options {
     max_depth: Option<u32>,
     passes: Option<u32>,
     denoise: bool,
+    guiding: String,
 }
 
 #[pymethods]
@@ -118,7 +120,7 @@ impl Scene {
     }
 
     /// Render the scene; see `embertrace.render`.
-    #[pyo3(signature = (spp=None, resolution=None, seed=0, threads=0, accel="embree", denoise=false, *, max_depth=None, passes=None, progress=None))]
+    #[pyo3(signature = (spp=None, resolution=None, seed=0, threads=0, accel="embree", denoise=false, *, max_depth=None, passes=None, progress=None, guiding="auto"))]
     #[allow(clippy::too_many_arguments)] // Python's keyword arguments
     fn render<'py>(
         &self,
@@ -132,6 +134,7 @@ impl Scene {
         max_depth: Option<u32>,
         passes: Option<u32>,
         progress: Option<Bound<'py, PyAny>>,
+        guiding: &str,
     ) -> PyResult<Bound<'py, PyArray3<f32>>> {
         let options = Options {
             spp,
@@ -142,6 +145,7 @@ impl Scene {
             max_depth,
             passes,
             denoise,
+            guiding: guiding.to_string(),
         };
         render_scene(py, &self.inner, &options, progress.as_ref())
     }
@@ -167,8 +171,13 @@ fn render_scene<'py>(
         .accel
         .parse()
         .map_err(|e| PyValueError::new_err(format!("accel={:?}: {e}", o.accel)))?;
+    let guiding: GuidingMode = o
+        .guiding
+        .parse()
+        .map_err(|e| PyValueError::new_err(format!("guiding={:?}: {e}", o.guiding)))?;
     let mut renderer = Renderer::new(scene)
         .backend(backend)
+        .guiding(guiding)
         .seed(o.seed)
         .threads(o.threads)
         .denoise(o.denoise);
@@ -260,9 +269,10 @@ fn load(py: Python<'_>, path: PathBuf, camera: Option<String>) -> PyResult<Scene
 /// `"bvh"`; `denoise` runs Intel Open Image Denoise at the end (a module built
 /// with the `denoise` feature); `passes` (default 64) splits the samples, and `progress` is
 /// called after each pass with a dict (`pass`, `passes`, `samples`, `spp`,
-/// `seconds`). Ctrl-C stops the render after the pass under way.
+/// `seconds`); `guiding` is `"auto"`, `"on"` or `"off"`, as `render
+/// --guiding`. Ctrl-C stops the render after the pass under way.
 #[pyfunction]
-#[pyo3(signature = (scene, spp=None, resolution=None, seed=0, threads=0, accel="embree", denoise=false, *, max_depth=None, passes=None, progress=None))]
+#[pyo3(signature = (scene, spp=None, resolution=None, seed=0, threads=0, accel="embree", denoise=false, *, max_depth=None, passes=None, progress=None, guiding="auto"))]
 #[allow(clippy::too_many_arguments)] // Python's keyword arguments
 fn render<'py>(
     py: Python<'py>,
@@ -276,13 +286,14 @@ fn render<'py>(
     max_depth: Option<u32>,
     passes: Option<u32>,
     progress: Option<Bound<'py, PyAny>>,
+    guiding: &str,
 ) -> PyResult<Bound<'py, PyArray3<f32>>> {
     let loaded = match scene.cast::<Scene>() {
         Ok(s) => s.clone(),
         Err(_) => Bound::new(py, load(py, scene.extract()?, None)?)?,
     };
     loaded.get().render(
-        py, spp, resolution, seed, threads, accel, denoise, max_depth, passes, progress,
+        py, spp, resolution, seed, threads, accel, denoise, max_depth, passes, progress, guiding,
     )
 }
 

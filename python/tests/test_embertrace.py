@@ -171,6 +171,18 @@ def test_bad_arguments_are_value_errors():
         embertrace.render(CORNELL, spp=1, accel="octree")
     with pytest.raises(ValueError):
         embertrace.render(CORNELL, spp=1, passes=0)
+    with pytest.raises(ValueError, match="guiding"):
+        embertrace.render(CORNELL, spp=1, guiding="maybe")
+
+
+def test_guiding_is_a_keyword_and_changes_the_samples():
+    kw = dict(spp=4, resolution=(8, 8), seed=3, threads=1)
+    off = embertrace.render(CORNELL, guiding="off", **kw)
+    # auto leaves the Cornell box unguided: the same image as off
+    assert (embertrace.render(CORNELL, **kw) == off).all()
+    on = embertrace.render(CORNELL, guiding="on", **kw)
+    assert on.shape == off.shape
+    assert (on != off).any()
 
 
 DENOISE = "denoise" in embertrace.build_info()["features"].split(",")

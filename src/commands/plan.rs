@@ -5,7 +5,9 @@ use crate::accel::{self, Backend};
 use crate::error::Result;
 use crate::guiding::GuidingMode;
 use crate::integrator::PathTracer;
-use crate::integrator::training::{AUTO_INDIRECT_SHARE, GuidingReport, GuidingRequest, prepare};
+use crate::integrator::training::{
+    AUTO_INDIRECT_SHARE, AUTO_MIN_SPP, GuidingReport, GuidingRequest, prepare,
+};
 use crate::plan::Plan;
 use crate::scene::Scene;
 use crate::settings::{self, Flags, LightSampler};
@@ -20,6 +22,10 @@ pub struct PlanArgs {
     /// Maximum bounces (decides `indirect`) [scene default].
     #[arg(short = 'm', long = "max-depth", allow_negative_numbers = true)]
     max_depth: Option<u32>,
+    /// Samples per pixel the render would take (decides `--guiding auto`'s
+    /// training) [scene default].
+    #[arg(short = 's', long = "spp")]
+    spp: Option<u32>,
     /// Light selection: auto (the light BVH from 64 lights that are not at
     /// infinity, else power), power (in proportion to power) or bvh (by a
     /// light BVH, by importance at the shading point) [default: auto].
@@ -34,7 +40,7 @@ pub struct PlanArgs {
     guiding: GuidingMode,
     /// Print JSON: `effects` (the names that are on), `kernel`, `details`,
     /// `guiding` (`mode`, `on`, `indirect_share`, `threshold`,
-    /// `variance_ratio`, `cost_ratio`).
+    /// `variance_ratio`, `cost_ratio`, `spp`, `min_spp`).
     #[arg(long)]
     json: bool,
 }
@@ -44,6 +50,7 @@ pub fn run(args: PlanArgs) -> Result<()> {
     let scene = Scene::load(&args.scene)?;
     let flags = Flags {
         max_depth: args.max_depth,
+        spp: args.spp,
         light_sampler: args.light_sampler,
         ..Flags::default()
     };
@@ -60,6 +67,8 @@ pub fn run(args: PlanArgs) -> Result<()> {
             "threshold": AUTO_INDIRECT_SHARE,
             "variance_ratio": guiding.auto.and_then(|m| m.variance_ratio),
             "cost_ratio": guiding.auto.and_then(|m| m.cost_ratio),
+            "spp": settings.spp,
+            "min_spp": AUTO_MIN_SPP,
         });
         println!("{v}");
     } else {

@@ -22,11 +22,20 @@
 //! expectation-maximisation whose result depends on the order of its
 //! updates, and it is the method the done-when is stated against.
 //!
+//! A guided render's Russian roulette is adjoint-driven (Vorba and
+//! Křivánek 2016): each leaf also learns the radiance leaving it
+//! ([`Guide::leaf_radiance`]) and the guide carries the training images'
+//! pixel estimates ([`PixelEstimate`]), and a path goes on with a
+//! probability set by its expected contribution against its pixel's
+//! ([`WEIGHT_WINDOW`], [`ROULETTE_FLOOR`]).
+//!
 //! Where the bias is: none. The guide changes only which directions are
-//! sampled and with what density; every sample is weighted by the
-//! mixture's density, so the estimator stays unbiased for any guide. The
-//! training iterations' images are discarded (Müller et al. 2017; their
-//! 2019 inverse-variance combination is not done here).
+//! sampled and with what density, and which paths roulette ends; every
+//! sample is weighted by the mixture's density and every survivor by its
+//! probability of going on (never below [`ROULETTE_FLOOR`]), so the
+//! estimator stays unbiased for any guide. The training iterations'
+//! images are not added to the render's (Müller et al. 2017; their 2019
+//! inverse-variance combination is not done here).
 
 pub mod dtree;
 
@@ -202,7 +211,7 @@ pub struct Record {
     /// (light sampled here and everything after), over the throughput
     /// that arrived: an estimate of the radiance leaving `p` towards where
     /// the path came from, which efficiency-aware roulette weighs paths
-    /// by ([`Guide::radiance`]). Negative where it was not finite.
+    /// by ([`Guide::leaf_radiance`]). Negative where it was not finite.
     pub radiance: f32,
 }
 
@@ -285,7 +294,7 @@ impl Guide {
     }
 
     /// For the path of pixel `[x, y]`: the factor that turns its expected
-    /// contribution (throughput luminance times [`Guide::radiance`]) into
+    /// contribution (throughput luminance times [`Guide::leaf_radiance`]) into
     /// adjoint-driven roulette's probability of going on, `(1 + s) / (2 I)`
     /// with `I` the pixel's estimate and `s` the [`WEIGHT_WINDOW`]; 0 where
     /// there is no estimate or it is 0 (then the roulette is by
