@@ -11,6 +11,12 @@ renderers read the same file:
   powers span three decades (log-uniform from 1 to 1000, in a fixed
   pseudo-random order), so choosing lights by power or by importance at
   the shading point matters.
+- glossy-env.xml: glossy interreflections under an environment map: a
+  corner of two rough-conductor walls (aluminium, alpha 0.05) over a
+  rough gold floor (alpha 0.1), holding a rough-plastic sphere and a
+  rough-copper one, lit only by `scenes/sky.exr`. The light that reaches
+  most pixels has bounced between glossy surfaces, where the BSDF's lobe
+  rather than the light decides which directions matter.
 
     python3 benches/race/hard/make_hard_scenes.py   # rewrites the .xml files
 
@@ -165,11 +171,58 @@ def many_lights():
     return "\n".join(parts)
 
 
+def sphere(centre, radius, bsdf):
+    c = ", ".join(f"{v:g}" for v in centre)
+    return f"""    <shape type="sphere">
+        <point name="center" value="{c}"/>
+        <float name="radius" value="{radius:g}"/>
+        <ref id="{bsdf}"/>
+    </shape>"""
+
+
+def glossy_env():
+    parts = [header(128, 128, 64, 24, (2.6, 1.3, 2.6), (0.0, 0.45, 0.0), 50)]
+    parts.append("""    <bsdf type="roughconductor" id="wall">
+        <string name="material" value="Al"/>
+        <string name="distribution" value="ggx"/>
+        <float name="alpha" value="0.05"/>
+    </bsdf>
+    <bsdf type="roughconductor" id="floor">
+        <string name="material" value="Au"/>
+        <string name="distribution" value="ggx"/>
+        <float name="alpha" value="0.1"/>
+    </bsdf>
+    <bsdf type="roughconductor" id="copper">
+        <string name="material" value="Cu"/>
+        <string name="distribution" value="ggx"/>
+        <float name="alpha" value="0.2"/>
+    </bsdf>
+    <bsdf type="roughplastic" id="plastic">
+        <string name="distribution" value="ggx"/>
+        <float name="alpha" value="0.1"/>
+        <rgb name="diffuse_reflectance" value="0.1, 0.25, 0.6"/>
+    </bsdf>
+    <emitter type="envmap">
+        <string name="filename" value="../../../scenes/sky.exr"/>
+    </emitter>""")
+    # the corner: walls on x = 0 and z = 0 facing inwards, the floor y = 0,
+    # 2 m each way
+    parts.append(quad((0, 0, 0), (0, 0, 2), (2, 0, 0), "floor", comment="rough gold floor"))
+    parts.append(quad((0, 0, 0), (0, 1.5, 0), (0, 0, 2), "wall", comment="wall on x = 0"))
+    parts.append(quad((0, 0, 0), (2, 0, 0), (0, 1.5, 0), "wall", comment="wall on z = 0"))
+    parts.append(sphere((0.55, 0.35, 0.9), 0.35, "plastic"))
+    parts.append(sphere((1.0, 0.3, 0.4), 0.3, "copper"))
+    parts.append("</scene>\n")
+    return "\n".join(parts)
+
+
 def main():
     with open(os.path.join(HERE, "door-ajar.xml"), "w") as f:
         f.write(door_ajar())
     with open(os.path.join(HERE, "many-lights.xml"), "w") as f:
         f.write(many_lights())
+    with open(os.path.join(HERE, "glossy-env.xml"), "w") as f:
+        f.write(glossy_env())
 
 
 if __name__ == "__main__":
