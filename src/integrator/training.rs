@@ -386,23 +386,6 @@ pub fn train(
     settings: TrainSettings,
     pool: &rayon::ThreadPool,
 ) -> GuidingReport {
-    let view = PrepassView {
-        resolution,
-        stretch: Vec2::ONE,
-    };
-    train_view(tracer, scene, camera, &view, settings, pool)
-}
-
-/// [`train`] over the pixels of `view`.
-fn train_view(
-    tracer: &mut PathTracer<'_>,
-    scene: &Scene,
-    camera: &Camera,
-    view: &PrepassView,
-    settings: TrainSettings,
-    pool: &rayon::ThreadPool,
-) -> GuidingReport {
-    let resolution = view.resolution;
     let t = Instant::now();
     let bounds = scene.bounds();
     let mut builder = GuideBuilder::new(bounds.min, bounds.max);
@@ -424,15 +407,8 @@ fn train_view(
                     .map(|&origin| {
                         let mut out = BlockRecords::default();
                         for s in 0..spp {
-                            let mut lanes = block_lanes(
-                                shared,
-                                camera,
-                                resolution,
-                                origin,
-                                s,
-                                seed,
-                                view.stretch,
-                            );
+                            let mut lanes =
+                                block_lanes(shared, camera, resolution, origin, s, seed, Vec2::ONE);
                             let vertices = trace_recorded(shared, &mut lanes, &mut out.rays);
                             for (j, (lane, vertices)) in lanes.iter().zip(&vertices).enumerate() {
                                 if !lane.l.is_finite() {
