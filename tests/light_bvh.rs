@@ -123,7 +123,7 @@ fn chi2_chosen_lights_follow_the_pmf_and_mis_sees_the_same_pmf() {
             obs[c.index] += 1.0;
             // and, for an area light, the density of the whole sample is
             // what MIS computes from the point it found
-            if i % 100 != 0 {
+            if i % 50 != 0 {
                 continue;
             }
             if let Some(ls) = lights.sample(&scene, &from, u, s.next_2d()) {

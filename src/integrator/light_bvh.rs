@@ -8,14 +8,18 @@
 //! emits, and whether it emits from both sides. The tree is built top-down
 //! by pbrt's cost (power times the orientation measure `M_Omega` times the
 //! box's surface area, times the box's aspect `K_r`), over 12 buckets per
-//! axis, down to one light per leaf. A light is chosen by walking from the
-//! root, at each node choosing a child in proportion to its
-//! [`LightBounds::importance`] at the shading point (which bounds, from
-//! above, how much the lights below can send there); the product of those
-//! choices is the light's probability. Each light keeps its bit trail (the
-//! child taken at each depth), so [`LightBvh::pmf`] retraces that path for
-//! MIS and multiplies the same factors in the same order: the pmf the
-//! sampler returns and the one MIS asks for are the same bits.
+//! axis, down to one light per leaf. The binary tree is then collapsed into
+//! a 4-wide one (each node's children replaced by theirs, where they have
+//! them), whose nodes store their children's bounds lane by lane, so that
+//! one pass of 4-wide arithmetic evaluates all four importances; it has half
+//! the levels to walk. A light is chosen by walking from the root, at each
+//! node choosing a child in proportion to its [`LightBounds::importance`]
+//! at the shading point (which bounds, from above, how much the lights
+//! below can send there); the product of those choices is the light's
+//! probability. Each light keeps its trail (the child taken at each
+//! depth), so [`LightBvh::pmf`] retraces that path for MIS and multiplies
+//! the same factors in the same order: the pmf the sampler returns and the
+//! one MIS asks for are the same bits.
 //!
 //! Lights at infinity (directional lights, the uniform environment, the
 //! environment map) are chosen apart, as pbrt does: each with probability
@@ -27,6 +31,7 @@
 
 use crate::math::Vec3;
 use crate::sampling::DiscreteSample;
+use glam::Vec4;
 use std::f32::consts::PI;
 
 /// The largest `f32` below 1, so that a rescaled number stays in `[0, 1)`.
@@ -59,26 +64,6 @@ pub struct LightBounds {
     pub two_sided: bool,
 }
 
-/// `cos(max(0, a - b))` from sines and cosines.
-#[inline]
-fn cos_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
-    if cos_a > cos_b {
-        1.0
-    } else {
-        cos_a * cos_b + sin_a * sin_b
-    }
-}
-
-/// `sin(max(0, a - b))` from sines and cosines.
-#[inline]
-fn sin_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
-    if cos_a > cos_b {
-        0.0
-    } else {
-        sin_a * cos_b - cos_a * sin_b
-    }
-}
-
 #[inline]
 fn safe_sqrt(x: f32) -> f32 {
     x.max(0.0).sqrt()
@@ -95,45 +80,12 @@ impl LightBounds {
     /// cosine, with `theta'` the smallest angle between the cone of
     /// emission and the direction to `p`, widened by the angle the box
     /// subtends (pbrt-v4's `LightBounds::Importance`). Zero only where no
-    /// light in the bounds can reach `p`.
+    /// light in the bounds can reach `p`. The tree evaluates four at once
+    /// ([`Quad::importance`]); this is one lane of that.
     pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
-        let pc = self.centroid();
-        let diag = self.max - self.min;
-        // clamped to half the diagonal's length, as pbrt does, so that a
-        // point inside a large box does not see it as infinitely close
-        let d2 = p
-            .distance_squared(pc)
-            .max(0.5 * diag.length())
-            .max(f32::MIN_POSITIVE);
-        let wi = (p - pc).normalize_or_zero();
-        let mut cos_w = self.w.dot(wi);
-        if self.two_sided {
-            cos_w = cos_w.abs();
-        }
-        let sin_w = safe_sqrt(1.0 - cos_w * cos_w);
-        // the cone of directions from p that the box's bounding sphere fills
-        let r2 = 0.25 * diag.length_squared();
-        let dc2 = p.distance_squared(pc);
-        let cos_b = if dc2 < r2 {
-            -1.0
-        } else {
-            safe_sqrt(1.0 - r2 / dc2)
-        };
-        let sin_b = safe_sqrt(1.0 - cos_b * cos_b);
-        let sin_o = safe_sqrt(1.0 - self.cos_theta_o * self.cos_theta_o);
-        let cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, self.cos_theta_o);
-        let sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, self.cos_theta_o);
-        let cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
-        if cos_p <= self.cos_theta_e {
-            return 0.0;
-        }
-        let mut importance = self.phi * cos_p / d2;
-        if n != Vec3::ZERO {
-            let cos_i = wi.dot(n).abs();
-            let sin_i = safe_sqrt(1.0 - cos_i * cos_i);
-            importance *= cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
-        }
-        importance.max(0.0)
+        let mut q = Quad::EMPTY;
+        q.set(0, self, LEAF);
+        q.importance(p, n).x
     }
 
     /// Bounds of both (pbrt-v4's `Union` of light bounds and of direction
@@ -207,7 +159,8 @@ fn cone_union(a: Vec3, cos_a: f32, b: Vec3, cos_b: f32) -> (Vec3, f32) {
     ((rot * a).normalize(), theta_o.cos())
 }
 
-/// One node: a leaf holds one light, an interior node two children, the
+/// A node of the binary tree the build makes (and then collapses into
+/// [`Quad`]s): a leaf holds one light, an interior node two children, the
 /// first right after it.
 #[derive(Debug, Clone, Copy)]
 struct Node {
@@ -218,16 +171,162 @@ struct Node {
     leaf: bool,
 }
 
+/// In [`Quad::next`], the flag of a child that is a light (its selection
+/// index in the other bits) rather than a node.
+const LEAF: u32 = 1 << 31;
+
+/// A node of the tree that sampling walks: up to four children, their
+/// bounds stored lane by lane (structure of arrays), so that one pass of
+/// 4-wide arithmetic gives all four importances, with a square root or a
+/// division per step for all of them at once. The binary tree is collapsed
+/// two levels at a time: a binary node's children, each replaced by its
+/// own two children where it has them. A lane of power 0 is empty, and its
+/// importance is 0. Everything a lane's importance needs that does not
+/// depend on the shading point is precomputed: the box's centre, half its
+/// diagonal's length, the squared radius of its bounding sphere and the
+/// cone's sine.
+#[derive(Debug, Clone, Copy)]
+struct Quad {
+    cx: Vec4,
+    cy: Vec4,
+    cz: Vec4,
+    wx: Vec4,
+    wy: Vec4,
+    wz: Vec4,
+    phi: Vec4,
+    cos_o: Vec4,
+    sin_o: Vec4,
+    cos_e: Vec4,
+    /// Half the box's diagonal length, pbrt's floor on the squared distance.
+    half_diag: Vec4,
+    /// The squared radius of the box's bounding sphere.
+    r2: Vec4,
+    /// 1 where the lane's lights emit on both sides of their normals.
+    two_sided: Vec4,
+    /// Per lane: a node's index, or [`LEAF`] with a light's selection index.
+    next: [u32; 4],
+}
+
+impl Quad {
+    const EMPTY: Quad = Quad {
+        cx: Vec4::ZERO,
+        cy: Vec4::ZERO,
+        cz: Vec4::ZERO,
+        wx: Vec4::ZERO,
+        wy: Vec4::ZERO,
+        wz: Vec4::ZERO,
+        phi: Vec4::ZERO,
+        cos_o: Vec4::ZERO,
+        sin_o: Vec4::ZERO,
+        cos_e: Vec4::ZERO,
+        half_diag: Vec4::ZERO,
+        r2: Vec4::ZERO,
+        two_sided: Vec4::ZERO,
+        next: [LEAF; 4],
+    };
+
+    /// Puts bounds `b` in lane `k`, leading to `next`.
+    fn set(&mut self, k: usize, b: &LightBounds, next: u32) {
+        let c = b.centroid();
+        let diag = b.max - b.min;
+        self.cx[k] = c.x;
+        self.cy[k] = c.y;
+        self.cz[k] = c.z;
+        self.wx[k] = b.w.x;
+        self.wy[k] = b.w.y;
+        self.wz[k] = b.w.z;
+        self.phi[k] = b.phi;
+        self.cos_o[k] = b.cos_theta_o;
+        self.sin_o[k] = safe_sqrt(1.0 - b.cos_theta_o * b.cos_theta_o);
+        self.cos_e[k] = b.cos_theta_e;
+        self.half_diag[k] = 0.5 * diag.length();
+        self.r2[k] = 0.25 * diag.length_squared();
+        self.two_sided[k] = if b.two_sided { 1.0 } else { 0.0 };
+        self.next[k] = next;
+    }
+
+    /// The importance of each lane at `p` with normal `n` (see
+    /// [`LightBounds::importance`]), lane by lane the same arithmetic as
+    /// pbrt-v4's `LightBounds::Importance`.
+    #[inline]
+    fn importance(&self, p: Vec3, n: Vec3) -> Vec4 {
+        let one = Vec4::ONE;
+        let sqrt0 = |x: Vec4| x.max(Vec4::ZERO).sqrt();
+        // cos(max(0, a - b)) from sines and cosines
+        let cos_sub = |sin_a: Vec4, cos_a: Vec4, sin_b: Vec4, cos_b: Vec4| {
+            Vec4::select(cos_a.cmpgt(cos_b), one, cos_a * cos_b + sin_a * sin_b)
+        };
+        let (dx, dy, dz) = (
+            Vec4::splat(p.x) - self.cx,
+            Vec4::splat(p.y) - self.cy,
+            Vec4::splat(p.z) - self.cz,
+        );
+        let dc2 = dx * dx + dy * dy + dz * dz;
+        // clamped to half the diagonal's length, as pbrt does, so that a
+        // point inside a large box does not see it as infinitely close
+        let d2 = dc2.max(self.half_diag).max(Vec4::splat(f32::MIN_POSITIVE));
+        // the unit direction from the centre to p (zero at the centre)
+        let rcp = one / dc2.sqrt();
+        let rcp = Vec4::select(
+            rcp.cmplt(Vec4::INFINITY) & rcp.cmpgt(Vec4::ZERO),
+            rcp,
+            Vec4::ZERO,
+        );
+        let (wx, wy, wz) = (dx * rcp, dy * rcp, dz * rcp);
+        let cos_w = self.wx * wx + self.wy * wy + self.wz * wz;
+        let cos_w = Vec4::select(self.two_sided.cmpgt(Vec4::ZERO), cos_w.abs(), cos_w);
+        let sin_w = sqrt0(one - cos_w * cos_w);
+        // the cone of directions from p that the box's bounding sphere fills
+        let cos_b = Vec4::select(
+            dc2.cmplt(self.r2),
+            Vec4::NEG_ONE,
+            sqrt0(one - self.r2 / dc2),
+        );
+        let sin_b = sqrt0(one - cos_b * cos_b);
+        let past_cone = cos_w.cmpgt(self.cos_o);
+        let cos_x = Vec4::select(past_cone, one, cos_w * self.cos_o + sin_w * self.sin_o);
+        let sin_x = Vec4::select(
+            past_cone,
+            Vec4::ZERO,
+            sin_w * self.cos_o - cos_w * self.sin_o,
+        );
+        let cos_p = cos_sub(sin_x, cos_x, sin_b, cos_b);
+        let mut importance = self.phi * cos_p / d2;
+        if n != Vec3::ZERO {
+            let cos_i = (wx * n.x + wy * n.y + wz * n.z).abs();
+            let sin_i = sqrt0(one - cos_i * cos_i);
+            importance *= cos_sub(sin_i, cos_i, sin_b, cos_b);
+        }
+        // NaN (from an empty lane or bad bounds) becomes 0 as well
+        let importance = Vec4::select(importance.cmpgt(Vec4::ZERO), importance, Vec4::ZERO);
+        Vec4::select(cos_p.cmpgt(self.cos_e), importance, Vec4::ZERO)
+    }
+
+    /// Each lane's probability at `(p, n)`, in proportion to its importance,
+    /// or `None` when none can light it.
+    #[inline]
+    fn probabilities(&self, p: Vec3, n: Vec3) -> Option<[f32; 4]> {
+        let imp = self.importance(p, n).to_array();
+        let total = (imp[0] + imp[1]) + (imp[2] + imp[3]);
+        if !(total > 0.0) || !total.is_finite() {
+            return None;
+        }
+        Some(imp.map(|x| x / total))
+    }
+}
+
 /// The light BVH over a scene's lights, with the lights at infinity beside
 /// it.
 #[derive(Debug, Clone)]
 pub struct LightBvh {
-    nodes: Vec<Node>,
+    /// The 4-wide tree, its root first; empty when no finite light has
+    /// power.
+    quads: Vec<Quad>,
     /// Selection indices of the lights at infinity.
     infinite: Vec<u32>,
-    /// Per selection index: the light's bit trail in the tree (bit `k`: the
-    /// second child was taken at depth `k`), or `None` (at infinity, or no
-    /// power).
+    /// Per selection index: the light's trail in the tree (two bits per
+    /// level, the lane taken there, from the low bits up), or `None` (at
+    /// infinity, or no power).
     trail: Vec<Option<u64>>,
 }
 
@@ -243,111 +342,63 @@ impl LightBvh {
             .filter(|(_, b)| b.phi > 0.0 && b.phi.is_finite())
             .collect();
         let mut bvh = LightBvh {
-            nodes: Vec::with_capacity(2 * items.len()),
+            quads: Vec::new(),
             infinite,
             trail: vec![None; count],
         };
         if !items.is_empty() {
-            bvh.build(&mut items, 0, 0);
+            let mut nodes = Vec::with_capacity(2 * items.len());
+            build(&mut nodes, &mut items, 0);
+            bvh.quads.reserve(nodes.len() / 2 + 1);
+            // the root's lanes: its children, or the one light itself
+            let root = if nodes[0].leaf {
+                vec![0]
+            } else {
+                children(&nodes, 0)
+            };
+            bvh.collapse(&nodes, &root, 0, 0);
         }
         bvh
     }
 
-    /// Whether nothing can be chosen.
-    pub fn is_empty(&self) -> bool {
-        self.nodes.is_empty() && self.infinite.is_empty()
+    /// Appends the quad over binary nodes `lanes` (two to four, or the
+    /// one leaf of a one-light tree), reached by `trail` at quad depth
+    /// `depth`, and those below it; returns its index.
+    fn collapse(&mut self, nodes: &[Node], lanes: &[usize], trail: u64, depth: u32) -> u32 {
+        let at = self.quads.len();
+        self.quads.push(Quad::EMPTY);
+        for (k, &i) in lanes.iter().enumerate() {
+            let node = &nodes[i];
+            let trail = trail | ((k as u64) << (2 * depth));
+            let next = if node.leaf {
+                self.trail[node.index as usize] = Some(trail);
+                LEAF | node.index
+            } else {
+                let below = children(nodes, i)
+                    .into_iter()
+                    .flat_map(|c| {
+                        if nodes[c].leaf {
+                            vec![c]
+                        } else {
+                            children(nodes, c)
+                        }
+                    })
+                    .collect::<Vec<_>>();
+                self.collapse(nodes, &below, trail, depth + 1)
+            };
+            self.quads[at].set(k, &node.bounds, next);
+        }
+        at as u32
     }
 
-    /// Build the subtree over `items` with bit trail `trail` at `depth`;
-    /// returns its node index.
-    fn build(&mut self, items: &mut [(u32, LightBounds)], trail: u64, depth: u32) -> usize {
-        let at = self.nodes.len();
-        if items.len() == 1 {
-            let (light, bounds) = items[0];
-            self.nodes.push(Node {
-                bounds,
-                index: light,
-                leaf: true,
-            });
-            self.trail[light as usize] = Some(trail);
-            return at;
-        }
-        let bounds = items[1..]
-            .iter()
-            .fold(items[0].1, |acc, (_, b)| acc.union(b));
-        let (mut cmin, mut cmax) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        for (_, b) in items.iter() {
-            cmin = cmin.min(b.centroid());
-            cmax = cmax.max(b.centroid());
-        }
-        let extent = bounds.max - bounds.min;
-        let bucket_of = |c: Vec3, dim: usize| -> usize {
-            let t = (c[dim] - cmin[dim]) / (cmax[dim] - cmin[dim]);
-            ((t * BUCKETS as f32) as usize).min(BUCKETS - 1)
-        };
-        // the cheapest split over every axis and bucket boundary
-        let mut best: Option<(f64, usize, usize)> = None;
-        if depth < BALANCED_FROM_DEPTH {
-            for dim in 0..3 {
-                if !(cmax[dim] > cmin[dim]) {
-                    continue;
-                }
-                let mut buckets: [Option<LightBounds>; BUCKETS] = [None; BUCKETS];
-                for (_, b) in items.iter() {
-                    let k = bucket_of(b.centroid(), dim);
-                    buckets[k] = Some(buckets[k].map_or(*b, |x| x.union(b)));
-                }
-                for split in 1..BUCKETS {
-                    let side = |r: std::ops::Range<usize>| {
-                        buckets[r]
-                            .iter()
-                            .flatten()
-                            .fold(None::<LightBounds>, |acc, b| {
-                                Some(acc.map_or(*b, |a| a.union(b)))
-                            })
-                    };
-                    let (Some(lo), Some(hi)) = (side(0..split), side(split..BUCKETS)) else {
-                        continue;
-                    };
-                    let cost = lo.cost(extent, dim) + hi.cost(extent, dim);
-                    if best.is_none_or(|(c, ..)| cost < c) {
-                        best = Some((cost, dim, split));
-                    }
-                }
-            }
-        }
-        let mut mid = match best {
-            Some((_, dim, split)) => {
-                // stable partition: the order below the split is kept
-                let (lo, hi): (Vec<_>, Vec<_>) = items
-                    .iter()
-                    .partition(|(_, b)| bucket_of(b.centroid(), dim) < split);
-                let n = lo.len();
-                for (slot, item) in items.iter_mut().zip(lo.into_iter().chain(hi)) {
-                    *slot = item;
-                }
-                n
-            }
-            None => items.len() / 2,
-        };
-        if mid == 0 || mid == items.len() {
-            mid = items.len() / 2;
-        }
-        self.nodes.push(Node {
-            bounds,
-            index: 0,
-            leaf: false,
-        });
-        let (lo, hi) = items.split_at_mut(mid);
-        self.build(lo, trail, depth + 1);
-        let second = self.build(hi, trail | (1u64 << depth), depth + 1);
-        self.nodes[at].index = second as u32;
-        at
+    /// Whether nothing can be chosen.
+    pub fn is_empty(&self) -> bool {
+        self.quads.is_empty() && self.infinite.is_empty()
     }
 
     /// Probability of the tree (rather than a light at infinity).
     fn p_tree(&self) -> f32 {
-        if self.nodes.is_empty() {
+        if self.quads.is_empty() {
             0.0
         } else {
             1.0 / (self.infinite.len() + 1) as f32
@@ -356,27 +407,11 @@ impl LightBvh {
 
     /// Probability of each light at infinity.
     fn p_infinite_each(&self) -> f32 {
-        if self.nodes.is_empty() {
+        if self.quads.is_empty() {
             1.0 / self.infinite.len() as f32
         } else {
             1.0 / (self.infinite.len() + 1) as f32
         }
-    }
-
-    /// The two children of interior node `i` and the probability of each
-    /// at `(p, n)`, or `None` when neither can light it.
-    #[inline]
-    fn children(&self, i: usize, p: Vec3, n: Vec3) -> Option<([usize; 2], [f32; 2])> {
-        let c = [i + 1, self.nodes[i].index as usize];
-        let imp = [
-            self.nodes[c[0]].bounds.importance(p, n),
-            self.nodes[c[1]].bounds.importance(p, n),
-        ];
-        let total = imp[0] + imp[1];
-        if !(total > 0.0) || !total.is_finite() {
-            return None;
-        }
-        Some((c, [imp[0] / total, imp[1] / total]))
     }
 
     /// Choose a light for the point `p` with normal `n` (zero: none) with
@@ -387,7 +422,7 @@ impl LightBvh {
         let n_inf = self.infinite.len();
         if n_inf > 0 {
             let p_inf = n_inf as f32 * self.p_infinite_each();
-            if u < p_inf || self.nodes.is_empty() {
+            if u < p_inf || self.quads.is_empty() {
                 let k = ((u / p_inf * n_inf as f32) as usize).min(n_inf - 1);
                 return Some(DiscreteSample {
                     index: self.infinite[k] as usize,
@@ -396,39 +431,42 @@ impl LightBvh {
             }
             u = ((u - p_inf) / (1.0 - p_inf)).min(ONE_MINUS_EPSILON);
         }
-        if self.nodes.is_empty() {
+        if self.quads.is_empty() {
             return None;
         }
         let mut pmf = self.p_tree();
         let mut i = 0;
         loop {
-            let node = &self.nodes[i];
-            if node.leaf {
-                // below the root a leaf was reached by its importance
-                if i > 0 || node.bounds.importance(p, n) > 0.0 {
-                    return Some(DiscreteSample {
-                        index: node.index as usize,
-                        pmf,
-                    });
-                }
-                return None;
+            let quad = &self.quads[i];
+            let prob = quad.probabilities(p, n)?;
+            // the lane whose range of the running sum holds u; rounding can
+            // leave u past the last sum, which takes the last lane that can
+            // be chosen (one can: the sum is positive)
+            let mut k = 0;
+            let mut below = 0.0;
+            while k < 3 && !(prob[k] > 0.0 && u < below + prob[k]) {
+                below += prob[k];
+                k += 1;
             }
-            let (c, prob) = self.children(i, p, n)?;
-            if u < prob[0] {
-                u = (u / prob[0]).min(ONE_MINUS_EPSILON);
-                pmf *= prob[0];
-                i = c[0];
-            } else {
-                u = ((u - prob[0]) / prob[1]).min(ONE_MINUS_EPSILON);
-                pmf *= prob[1];
-                i = c[1];
+            while !(prob[k] > 0.0) {
+                k -= 1;
             }
+            u = ((u - below).max(0.0) / prob[k]).min(ONE_MINUS_EPSILON);
+            pmf *= prob[k];
+            let next = quad.next[k];
+            if next & LEAF != 0 {
+                return Some(DiscreteSample {
+                    index: (next & !LEAF) as usize,
+                    pmf,
+                });
+            }
+            i = next as usize;
         }
     }
 
     /// Probability that [`LightBvh::sample`] at `(p, n)` chooses the light
     /// with selection index `light`: the same factors, retraced along its
-    /// bit trail.
+    /// trail.
     pub fn pmf(&self, p: Vec3, n: Vec3, light: usize) -> f32 {
         if self.infinite.iter().any(|&k| k as usize == light) {
             return self.p_infinite_each();
@@ -440,27 +478,116 @@ impl LightBvh {
         let mut i = 0;
         let mut depth = 0;
         loop {
-            let node = &self.nodes[i];
-            if node.leaf {
-                if i > 0 || node.bounds.importance(p, n) > 0.0 {
-                    return pmf;
-                }
-                return 0.0;
-            }
-            let Some((c, prob)) = self.children(i, p, n) else {
+            let quad = &self.quads[i];
+            let Some(prob) = quad.probabilities(p, n) else {
                 return 0.0;
             };
-            let k = ((trail >> depth) & 1) as usize;
+            let k = ((trail >> (2 * depth)) & 3) as usize;
             pmf *= prob[k];
-            i = c[k];
+            let next = quad.next[k];
+            if next & LEAF != 0 {
+                return pmf;
+            }
+            i = next as usize;
             depth += 1;
         }
     }
 
-    /// The number of nodes.
+    /// The number of 4-wide nodes.
     pub fn node_count(&self) -> usize {
-        self.nodes.len()
+        self.quads.len()
     }
+}
+
+/// The two children of binary interior node `i`.
+fn children(nodes: &[Node], i: usize) -> Vec<usize> {
+    vec![i + 1, nodes[i].index as usize]
+}
+
+/// Builds the binary subtree over `items` at `depth` into `nodes`; returns
+/// its node index.
+fn build(nodes: &mut Vec<Node>, items: &mut [(u32, LightBounds)], depth: u32) -> usize {
+    let at = nodes.len();
+    if items.len() == 1 {
+        let (light, bounds) = items[0];
+        nodes.push(Node {
+            bounds,
+            index: light,
+            leaf: true,
+        });
+        return at;
+    }
+    let bounds = items[1..]
+        .iter()
+        .fold(items[0].1, |acc, (_, b)| acc.union(b));
+    let (mut cmin, mut cmax) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for (_, b) in items.iter() {
+        cmin = cmin.min(b.centroid());
+        cmax = cmax.max(b.centroid());
+    }
+    let extent = bounds.max - bounds.min;
+    let bucket_of = |c: Vec3, dim: usize| -> usize {
+        let t = (c[dim] - cmin[dim]) / (cmax[dim] - cmin[dim]);
+        ((t * BUCKETS as f32) as usize).min(BUCKETS - 1)
+    };
+    // the cheapest split over every axis and bucket boundary
+    let mut best: Option<(f64, usize, usize)> = None;
+    if depth < BALANCED_FROM_DEPTH {
+        for dim in 0..3 {
+            if !(cmax[dim] > cmin[dim]) {
+                continue;
+            }
+            let mut buckets: [Option<LightBounds>; BUCKETS] = [None; BUCKETS];
+            for (_, b) in items.iter() {
+                let k = bucket_of(b.centroid(), dim);
+                buckets[k] = Some(buckets[k].map_or(*b, |x| x.union(b)));
+            }
+            for split in 1..BUCKETS {
+                let side = |r: std::ops::Range<usize>| {
+                    buckets[r]
+                        .iter()
+                        .flatten()
+                        .fold(None::<LightBounds>, |acc, b| {
+                            Some(acc.map_or(*b, |a| a.union(b)))
+                        })
+                };
+                let (Some(lo), Some(hi)) = (side(0..split), side(split..BUCKETS)) else {
+                    continue;
+                };
+                let cost = lo.cost(extent, dim) + hi.cost(extent, dim);
+                if best.is_none_or(|(c, ..)| cost < c) {
+                    best = Some((cost, dim, split));
+                }
+            }
+        }
+    }
+    let mut mid = match best {
+        Some((_, dim, split)) => {
+            // stable partition: the order below the split is kept
+            let (lo, hi): (Vec<_>, Vec<_>) = items
+                .iter()
+                .partition(|(_, b)| bucket_of(b.centroid(), dim) < split);
+            let n = lo.len();
+            for (slot, item) in items.iter_mut().zip(lo.into_iter().chain(hi)) {
+                *slot = item;
+            }
+            n
+        }
+        None => items.len() / 2,
+    };
+    if mid == 0 || mid == items.len() {
+        mid = items.len() / 2;
+    }
+    nodes.push(Node {
+        bounds,
+        index: 0,
+        leaf: false,
+    });
+    let (lo, hi) = items.split_at_mut(mid);
+    build(nodes, lo, depth + 1);
+    let second = build(nodes, hi, depth + 1);
+    nodes[at].index = second as u32;
+    at
 }
 
 #[cfg(test)]
@@ -502,6 +629,44 @@ mod tests {
         let a = pl.importance(Vec3::new(0.0, 0.0, 2.0), Vec3::ZERO);
         let b = pl.importance(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO);
         assert!((a / b - 4.0).abs() < 1e-5);
+    }
+
+    /// Trees of one to five lights (a root of one, two, three and four
+    /// lanes, and one a level deeper): a light no point can see behind it
+    /// is never chosen there, every u chooses a light whose pmf the sample
+    /// carries, and the pmfs sum to 1.
+    #[test]
+    fn small_trees_choose_every_light_they_should() {
+        let facing_up = |x: f32| LightBounds {
+            min: Vec3::new(x, 0.0, 0.0),
+            max: Vec3::new(x + 0.5, 0.5, 0.0),
+            w: Vec3::Z,
+            phi: 1.0 + x,
+            cos_theta_o: 1.0,
+            cos_theta_e: 0.0,
+            two_sided: false,
+        };
+        for count in 1..=5u32 {
+            let lights: Vec<_> = (0..count).map(|i| (i, facing_up(i as f32))).collect();
+            let bvh = LightBvh::new(&lights, vec![], count as usize);
+            let above = Vec3::new(1.0, 0.2, 2.0);
+            let sum: f32 = (0..count as usize)
+                .map(|k| bvh.pmf(above, Vec3::ZERO, k))
+                .sum();
+            assert!((sum - 1.0).abs() < 1e-6, "{count} lights: {sum}");
+            let mut seen = vec![false; count as usize];
+            for j in 0..4096 {
+                let u = (j as f32 + 0.5) / 4096.0;
+                let s = bvh.sample(above, Vec3::ZERO, u).expect("a light");
+                assert_eq!(s.pmf, bvh.pmf(above, Vec3::ZERO, s.index));
+                seen[s.index] = true;
+            }
+            assert!(seen.iter().all(|&x| x), "{count} lights: {seen:?}");
+            // below the lights, which face up, nothing can be lit
+            let below = Vec3::new(1.0, 0.2, -2.0);
+            assert!(bvh.sample(below, Vec3::ZERO, 0.5).is_none());
+            assert_eq!(bvh.pmf(below, Vec3::ZERO, 0), 0.0);
+        }
     }
 
     #[test]
