@@ -79,11 +79,14 @@ pub enum LightSampler {
 }
 
 /// The number of lights (emissive triangles and spheres, point and spot
-/// lights) from which `auto` picks the light BVH. Measured on
-/// `scenes/many-lights.py`'s grid of small emissive quads over a floor
-/// (README, "Many lights"): the BVH's error at equal time is the lower
-/// from about this many lights on.
-pub const LIGHT_BVH_FROM: usize = 64;
+/// lights) from which `auto` picks the light BVH. Measured with the 4-wide
+/// tree (guide, "Many lights"): its efficiency was the higher from the
+/// smallest counts tried, 8 small lights over a floor (6.9x power's) and a
+/// Cornell box with 4 point lights besides its ceiling's two triangles
+/// (2.5x), at 1.03x to 1.3x the time per sample. Not lower: a lamp of a
+/// few triangles that all light the same points gains nothing from a tree,
+/// and the Cornell box's two keep power selection's bits.
+pub const LIGHT_BVH_FROM: usize = 8;
 
 impl LightSampler {
     /// Whether a scene with `lights` lights (not at infinity) is sampled by

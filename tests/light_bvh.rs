@@ -26,13 +26,18 @@ const CHI2_TESTS: usize = 3;
 /// spheres, a point and a spot light, a directional light and a uniform
 /// environment; written to a temporary folder.
 fn many_light_scene() -> Scene {
+    light_scene(24)
+}
+
+/// [`many_light_scene`] with `triangles` emissive triangles (at most 24).
+fn light_scene(triangles: usize) -> Scene {
     let dir = tempfile::tempdir().unwrap();
     let mut obj = String::from("v -6 0 -6\nv 6 0 -6\nv 6 0 6\nv -6 0 6\nf 1 3 2\nf 1 4 3\n");
     let mut toml = String::from(
         "[camera]\norigin = [0.0, 4.0, 7.0]\ntarget = [0.0, 0.0, 0.0]\nfov_y = 50.0\n\
          [[mesh]]\nfile = \"floor.obj\"\nmaterial = { diffuse = 0.5 }\n",
     );
-    for k in 0..24 {
+    for k in 0..triangles {
         let (x, z) = ((k % 6) as f32 * 1.8 - 4.5, (k / 6) as f32 * 2.2 - 3.3);
         let y = 0.6 + 0.1 * (k % 5) as f32;
         let s = 0.15 + 0.02 * (k % 3) as f32;
@@ -235,9 +240,9 @@ fn the_same_seed_gives_the_same_bits_for_any_thread_count() {
 
 #[test]
 fn auto_picks_the_bvh_from_the_threshold_and_power_below_it() {
-    let scene = many_light_scene();
-    // 24 triangles, 2 spheres, a point and a spot: under the threshold
-    const { assert!(28 < LIGHT_BVH_FROM) };
+    // 3 triangles, 2 spheres, a point and a spot: under the threshold
+    let scene = light_scene(3);
+    const { assert!(7 < LIGHT_BVH_FROM) };
     let plan = Plan::new(&scene, &IntegratorSettings::default());
     assert!(!plan.on().contains(&"many_lights"));
     assert!(!Lights::with_sampler(&scene, LightSampler::Auto).uses_bvh());

@@ -26,7 +26,7 @@ pub struct PlanArgs {
     /// training) [scene default].
     #[arg(short = 's', long = "spp")]
     spp: Option<u32>,
-    /// Light selection: auto (the light BVH from 64 lights that are not at
+    /// Light selection: auto (the light BVH from 8 lights that are not at
     /// infinity, else power), power (in proportion to power) or bvh (by a
     /// light BVH, by importance at the shading point) [default: auto].
     #[arg(long = "light-sampler", value_name = "auto|power|bvh")]

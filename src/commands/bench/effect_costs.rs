@@ -326,17 +326,21 @@ fn with_placed_boxes(base: &Scene) -> Scene {
     )
 }
 
-/// The base scene with [`LIGHT_BVH_FROM`] small emissive triangles (a square
-/// grid of them, facing down, just under the top of the scene's bounds),
-/// enough lights for `--light-sampler auto` to pick the light BVH whatever
-/// the scene had.
+/// Small lights in the many-lights rows: enough for `--light-sampler auto`
+/// to pick the light BVH whatever the scene had, and many enough that the
+/// tree has levels to walk.
+const SMALL_LIGHTS: usize = 64;
+const _: () = assert!(SMALL_LIGHTS >= LIGHT_BVH_FROM);
+
+/// The base scene with [`SMALL_LIGHTS`] small emissive triangles (a square
+/// grid of them, facing down, just under the top of the scene's bounds).
 fn with_many_lights(base: &Scene) -> Scene {
     let (size, floor) = size_and_floor(base);
     let top = base.bounds().max.y - 0.01 * size;
-    let n = (LIGHT_BVH_FROM as f32).sqrt().ceil() as usize;
+    let n = (SMALL_LIGHTS as f32).sqrt().ceil() as usize;
     let d = 0.02 * size;
     let mut triangles = Vec::new();
-    for k in 0..LIGHT_BVH_FROM {
+    for k in 0..SMALL_LIGHTS {
         let (i, j) = ((k % n) as f32, (k / n) as f32);
         let step = 0.8 * size / n as f32;
         let p = Vec3::new(
@@ -458,7 +462,7 @@ fn variants(base: &Scene) -> Vec<Variant> {
     };
     let no_maps = Maps::default;
     let lights = with_many_lights(base);
-    let n_lights = LIGHT_BVH_FROM;
+    let n_lights = SMALL_LIGHTS;
     vec![
         v("base scene", base.clone(), false),
         v("base scene, --plan general", base.clone(), true),

@@ -114,7 +114,7 @@ pub struct RenderArgs {
     /// scene's, 3 unless it says].
     #[arg(long = "rr-depth", allow_negative_numbers = true)]
     rr_depth: Option<u32>,
-    /// Light selection: auto (the light BVH from 64 lights that are not at
+    /// Light selection: auto (the light BVH from 8 lights that are not at
     /// infinity, else power), power (in proportion to power) or bvh (by a
     /// light BVH, by importance at the shading point) [default: auto].
     #[arg(long = "light-sampler", value_name = "auto|power|bvh")]

@@ -62,7 +62,7 @@ pub struct StudyArgs {
     /// Base backend [embree when compiled in].
     #[arg(long)]
     accel: Option<Backend>,
-    /// Light selection: auto (the light BVH from 64 lights that are not at
+    /// Light selection: auto (the light BVH from 8 lights that are not at
     /// infinity, else power), power (in proportion to power) or bvh (by a
     /// light BVH, by importance at the shading point) [default: auto].
     #[arg(long = "light-sampler", value_name = "auto|power|bvh")]
