@@ -27,11 +27,13 @@ const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// The unit square's point for direction `d` (unit length): `x` is
 /// `(cos theta + 1) / 2`, `y` is `phi / 2 pi`. Equal-area: the Jacobian of
-/// [`square_to_dir`] is `4 pi` everywhere.
+/// [`square_to_dir`] is `4 pi` everywhere. The azimuth comes from
+/// [`crate::math::trig::atan2`] (no C library call: glibc's `atan2f` was
+/// 3 % of a guided render's time).
 #[inline]
 pub fn dir_to_square(d: Vec3) -> Vec2 {
     let x = ((d.z.clamp(-1.0, 1.0) + 1.0) * 0.5).min(ONE_MINUS_EPSILON);
-    let mut phi = d.y.atan2(d.x);
+    let mut phi = crate::math::trig::atan2(d.y, d.x);
     if phi < 0.0 {
         phi += 2.0 * PI;
     }
