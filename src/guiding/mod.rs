@@ -29,6 +29,9 @@
 //! probability set by its expected contribution against its pixel's
 //! ([`WEIGHT_WINDOW`], [`ROULETTE_FLOOR`]).
 //!
+//! The share of BSDF samples at a guided bounce is learned per leaf
+//! (Müller 2019, [`fraction`]), starting from one half ([`BSDF_FRACTION`]).
+//!
 //! Where the bias is: none. The guide changes only which directions are
 //! sampled and with what density, and which paths roulette ends; every
 //! sample is weighted by the mixture's density and every survivor by its
@@ -38,9 +41,11 @@
 //! inverse-variance combination is not done here).
 
 pub mod dtree;
+pub mod fraction;
 
 use crate::math::Vec3;
 use dtree::{BuildTree, SampleTree};
+use fraction::{Fraction, FractionSample};
 use std::fmt;
 use std::str::FromStr;
 
@@ -81,8 +86,9 @@ impl fmt::Display for GuidingMode {
     }
 }
 
-/// The share of samples the BSDF draws at a guided bounce; the guide draws
-/// the rest (Müller et al. 2017 use one half).
+/// The share of samples the BSDF draws at a guided bounce before a leaf has
+/// learned its own ([`fraction`]); the guide draws the rest (Müller et al.
+/// 2017 use one half throughout).
 pub const BSDF_FRACTION: f32 = 0.5;
 
 /// Records above which a spatial leaf splits after the first iteration
@@ -192,6 +198,8 @@ struct LeafState {
     radiance_sum: f64,
     /// Records with a finite outgoing radiance, all iterations so far.
     radiance_count: u64,
+    /// The learned share of BSDF samples, all iterations so far.
+    fraction: Fraction,
 }
 
 /// One record of training: at `p`, on a surface of normal `n`, radiance
@@ -213,6 +221,9 @@ pub struct Record {
     /// the path came from, which efficiency-aware roulette weighs paths
     /// by ([`Guide::leaf_radiance`]). Negative where it was not finite.
     pub radiance: f32,
+    /// At a guided bounce, what the leaf's share of BSDF samples learns
+    /// from ([`fraction`]); `None` at an unguided one.
+    pub fraction: Option<FractionSample>,
 }
 
 /// The guide a render samples from: the spatial tree and one frozen
@@ -226,6 +237,8 @@ pub struct Guide {
     radiance: Vec<f32>,
     /// The pixels' estimates, for roulette ([`Guide::roulette_scale`]).
     pixels: Option<PixelEstimate>,
+    /// Each leaf's learned share of BSDF samples ([`fraction`]).
+    bsdf_shares: Vec<f32>,
 }
 
 /// What training's images estimate each pixel to be: the mean luminance of
@@ -285,6 +298,12 @@ impl Guide {
     pub fn leaf_radiance(&self, i: u32) -> Option<f32> {
         let r = self.radiance[i as usize];
         (r >= 0.0).then_some(r)
+    }
+
+    /// Leaf `i`'s share of BSDF samples at a guided bounce ([`fraction`]).
+    #[inline]
+    pub fn bsdf_share(&self, i: u32) -> f32 {
+        self.bsdf_shares[i as usize]
     }
 
     /// This guide with `pixels`, the training images' estimates.
@@ -352,6 +371,7 @@ impl GuideBuilder {
                     count: 0,
                     radiance_sum: 0.0,
                     radiance_count: 0,
+                    fraction: Fraction::default(),
                 };
                 NORMAL_CLASSES
             ],
@@ -370,6 +390,9 @@ impl GuideBuilder {
             }
             if r.value > 0.0 && r.value.is_finite() {
                 leaf.build.add(dtree::dir_to_square(r.dir), r.value as f64);
+            }
+            if let Some(f) = &r.fraction {
+                leaf.fraction.add(f);
             }
         }
     }
@@ -404,6 +427,11 @@ impl GuideBuilder {
                 })
                 .collect(),
             pixels: None,
+            bsdf_shares: self
+                .leaves
+                .iter()
+                .map(|l| l.fraction.bsdf_share())
+                .collect(),
         }
     }
 
@@ -457,10 +485,22 @@ mod tests {
                 dir: Vec3::Z,
                 value: 1.0,
                 radiance: 0.5,
+                // the BSDF's density far above the guide's where light was
+                fraction: Some(FractionSample {
+                    weight: 1.0,
+                    bsdf_pdf: 5.0,
+                    guide_pdf: 0.1,
+                }),
             })
             .collect();
         b.deposit(&records);
         let g = b.finish_iteration(0);
+        // the +y leaves (halves keep their parent's share) learned to favour
+        // the BSDF; the others never saw a record
+        let leaf = g.leaf_index(Vec3::new(0.1, 0.5, 0.5), Vec3::Y);
+        assert!(g.bsdf_share(leaf) > 0.9, "{}", g.bsdf_share(leaf));
+        let other = g.leaf_index(Vec3::new(0.1, 0.5, 0.5), -Vec3::Y);
+        assert_eq!(g.bsdf_share(other), BSDF_FRACTION);
         // 40000 records against a limit of 12000: split down to 12000 or
         // less, in the +y class's tree only
         assert!(g.leaf_count() >= 4 + 5, "{} leaves", g.leaf_count());
@@ -486,6 +526,7 @@ mod tests {
             dir: Vec3::Z,
             value: 1.0,
             radiance,
+            fraction: None,
         };
         let p = Vec3::splat(0.5);
         // a non-finite estimate (negative) is left out of the mean

@@ -3,6 +3,8 @@
 //! guide's training records.
 
 use super::{KernelBsdf, Lane, Shade};
+use crate::bsdf::BsdfSample;
+use crate::guiding::fraction::FractionSample;
 use crate::integrator::PathTracer;
 use crate::math::{Vec2, Vec3};
 
@@ -54,6 +56,11 @@ pub struct GuideVertex {
     /// Radiance the path had gathered when it arrived (emission seen here
     /// included, light sampled here not).
     pub l_in: Vec3,
+    /// The BSDF's density of `dir`.
+    pub bsdf_pdf: f32,
+    /// The guide's density of `dir` at a guided bounce; 0 at an unguided
+    /// one.
+    pub guide_pdf: f32,
 }
 
 impl GuideVertex {
@@ -63,12 +70,21 @@ impl GuideVertex {
     pub fn record(&self, l_end: Vec3) -> Option<crate::guiding::Record> {
         let value = radiance_over(l_end - self.l, self.beta) / self.pdf;
         let radiance = radiance_over(l_end - self.l_in, self.beta_in);
+        // F / q: what the path gathered after the bounce over the
+        // throughput that arrived (the bounce's weight f cos / q times the
+        // radiance that arrived)
+        let fraction = (self.guide_pdf > 0.0).then(|| FractionSample {
+            weight: radiance_over(l_end - self.l, self.beta_in),
+            bsdf_pdf: self.bsdf_pdf,
+            guide_pdf: self.guide_pdf,
+        });
         value.is_finite().then_some(crate::guiding::Record {
             p: self.p,
             n: self.n,
             dir: self.dir,
             value,
             radiance: if radiance.is_finite() { radiance } else { -1.0 },
+            fraction,
         })
     }
 }
@@ -120,6 +136,38 @@ impl PathTracer<'_> {
         }
     }
 
+    /// What training records of the bounce `sh` that sampled `bs` (world
+    /// direction `wi`) with throughput `beta_in` arriving; `lane` is past
+    /// the bounce. The two densities are evaluated again here, so that the
+    /// sampling itself computes nothing only training needs.
+    #[cold]
+    #[inline(never)]
+    pub(super) fn guide_vertex<B: KernelBsdf>(
+        &self,
+        sh: &Shade<B>,
+        lane: &Lane,
+        bs: &BsdfSample,
+        wi: Vec3,
+        beta_in: Vec3,
+    ) -> GuideVertex {
+        let guide_pdf = match (sh.guide, &self.guide) {
+            (Some(leaf), Some(g)) => g.leaf(leaf).pdf(wi),
+            _ => 0.0,
+        };
+        GuideVertex {
+            p: sh.its.sp.p,
+            n: sh.its.ng,
+            dir: wi,
+            pdf: bs.pdf,
+            beta: lane.beta,
+            l: lane.l,
+            beta_in,
+            l_in: sh.l_in,
+            bsdf_pdf: sh.bsdf.pdf(sh.wo_local, bs.wi),
+            guide_pdf,
+        }
+    }
+
     /// The density with which [`PathTracer::scatter`] samples `wi` (local
     /// frame; `wi_world` in the world): the BSDF's, or at a guided bounce
     /// the mixture's of the BSDF and the guide.
@@ -133,15 +181,16 @@ impl PathTracer<'_> {
         let p = sh.bsdf.pdf(sh.wo_local, wi_local);
         match (sh.guide, &self.guide) {
             (Some(leaf), Some(g)) => {
-                let a = crate::guiding::BSDF_FRACTION;
+                let a = g.bsdf_share(leaf);
                 a * p + (1.0 - a) * g.leaf(leaf).pdf(wi_world)
             }
             _ => p,
         }
     }
 
-    /// A direction from the mixture of the BSDF (with probability
-    /// [`crate::guiding::BSDF_FRACTION`]) and the guide's leaf `leaf`, with
+    /// A direction from the mixture of the BSDF (with the leaf's learned
+    /// probability, [`crate::guiding::Guide::bsdf_share`]) and the guide's
+    /// leaf `leaf`, with
     /// the mixture's density: the first number picks the strategy and is
     /// rescaled for it (so a guided bounce draws no more numbers than an
     /// unguided one). Never inlined: an unguided render's kernel stays as
@@ -155,7 +204,7 @@ impl PathTracer<'_> {
     ) -> Option<crate::bsdf::BsdfSample> {
         let g = self.guide.as_ref()?;
         let tree = g.leaf(leaf);
-        let a = crate::guiding::BSDF_FRACTION;
+        let a = g.bsdf_share(leaf);
         let (by_bsdf, u) = crate::bsdf::choose_lobe(u, a);
         let (wi, f, bsdf_pdf, guide_pdf) = if by_bsdf {
             let bs = sh.bsdf.sample(sh.wo_local, u)?;

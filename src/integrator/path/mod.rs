@@ -693,19 +693,7 @@ impl<'a> PathTracer<'a> {
         let beta_in = lane.beta;
         lane.beta *= weight;
         if self.record && !bs.delta {
-            record(
-                index,
-                GuideVertex {
-                    p: its.sp.p,
-                    n: its.ng,
-                    dir: wi,
-                    pdf: bs.pdf,
-                    beta: lane.beta,
-                    l: lane.l,
-                    beta_in,
-                    l_in: sh.l_in,
-                },
-            );
+            record(index, self.guide_vertex(sh, lane, &bs, wi, beta_in));
         }
         if MATERIALS && sh.transmits && refracted {
             // undo the 1 / eta'^2 of the refraction for the roulette
