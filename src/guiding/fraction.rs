@@ -1,6 +1,7 @@
 //! The learned share of BSDF samples at a guided bounce, one per spatial
-//! leaf (Müller 2019, "Practical Path Guiding in Production", section
-//! 10.5, "Learning the BSDF sampling fraction").
+//! leaf (Müller 2019, "Practical Path Guiding in Production", in the
+//! SIGGRAPH 2019 course "Path Guiding in Production": the selection
+//! probability by stochastic gradient descent on a KL divergence).
 //!
 //! A guided bounce samples the mixture `q = a p_bsdf + (1 - a) p_guide`.
 //! A fixed `a = 1/2` wastes half the samples wherever one of the two is
