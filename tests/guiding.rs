@@ -184,6 +184,82 @@ fn a_checkpoint_resumes_only_under_the_same_guiding() {
     assert_eq!(bits(&d.join("c.exr")), bits(&d.join("a.exr")));
 }
 
+/// A guided render stopped by SIGINT after its first checkpoint resumes to
+/// the bits of one that ran through: the resumed run trains the same
+/// guide again (training is a function of the scene, the settings and the
+/// seed) and renders the samples the checkpoint lacks.
+#[test]
+fn a_guided_render_stopped_by_sigint_resumes_to_the_same_bits() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // 12 x 12 pixels, depth 4, 65536 spp: training takes 16383 spp (2.4 M
+    // paths), the render 9.4 M guided paths, seconds on any machine, so the
+    // interrupt lands in the render, after its first checkpoint
+    let common = [
+        "render",
+        CORNELL,
+        "-q",
+        "-r",
+        "12",
+        "12",
+        "-m",
+        "4",
+        "-s",
+        "65536",
+        "--guiding",
+        "on",
+    ];
+    let mut args: Vec<&str> = common.to_vec();
+    args.extend_from_slice(&[
+        "-o",
+        "two.exr",
+        "--checkpoint",
+        "ck.exr",
+        "--checkpoint-every",
+        "0.05",
+    ]);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_embertrace"))
+        .current_dir(d)
+        .args(&args)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while !d.join("ck.exr").exists() {
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("the render ended ({status}) before its first checkpoint");
+        }
+        if start.elapsed().as_secs() > 300 {
+            child.kill().unwrap();
+            panic!("no checkpoint after 300 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    // the shell's built-in kill: no procps needed on a bare machine
+    let sent = Command::new("sh")
+        .args(["-c", &format!("kill -INT {}", child.id())])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(
+        out.status.code(),
+        Some(130),
+        "the render finished before the interrupt: {err}"
+    );
+    assert!(!d.join("two.exr").exists(), "no partial image");
+    let (_, prov) = embertrace::farm::read_accumulation(&d.join("ck.exr")).unwrap();
+    assert!(prov.samples.end < 65536, "{:?}", prov.samples);
+    let mut resume: Vec<&str> = common.to_vec();
+    resume.extend_from_slice(&["-o", "two.exr", "--resume", "ck.exr"]);
+    ok(d, &resume);
+    let mut one: Vec<&str> = common.to_vec();
+    one.extend_from_slice(&["-o", "one.exr"]);
+    ok(d, &one);
+    assert_eq!(bits(&d.join("two.exr")), bits(&d.join("one.exr")));
+}
+
 /// Independent renders (seeds `seeds`) of the Cornell box at 32 x 32,
 /// 32 spp, light found by BSDF sampling alone.
 fn bsdf_only_passes(d: &Path, guiding: &str, seeds: std::ops::Range<u32>) -> Vec<Vec<f32>> {
