@@ -270,17 +270,26 @@ impl SampleTree {
         if !self.usable {
             return 0.0;
         }
-        let mut q = dir_to_square(d);
+        // The quadrant at depth k is bit k of the point's binary fraction
+        // in each coordinate ([`quadrant`]'s doubling is exact), so the
+        // walk reads the bits of the point scaled to 24-bit integers: the
+        // same quadrants, with nothing but the next node's load between
+        // one level and the next
+        const _: () = assert!(MAX_DEPTH <= 24);
+        let q = dir_to_square(d);
+        let scale = (1u32 << 24) as f32;
+        let (x, y) = ((q.x * scale) as u32, (q.y * scale) as u32);
         let mut node = &self.nodes[0];
         let mut pdf = 1.0f32 / (4.0 * PI);
+        let mut bit = 23;
         loop {
-            let (i, inner) = quadrant(q);
+            let i = ((x >> bit) & 1) as usize | ((((y >> bit) & 1) as usize) << 1);
             pdf *= node.factor[i];
             match node.child[i] {
                 0 => return pdf,
                 c => {
                     node = &self.nodes[c as usize];
-                    q = inner;
+                    bit -= 1;
                 }
             }
         }
@@ -356,6 +365,38 @@ mod tests {
         }
         let mean = sum / n as f64;
         assert!((mean - 1.0).abs() < 0.03, "integral {mean}");
+        // the walk by the point's bits is the walk by halving, bit for bit
+        let by_halving = |d: Vec3| {
+            let mut q = dir_to_square(d);
+            let mut node = &st.nodes[0];
+            let mut pdf = 1.0f32 / (4.0 * PI);
+            loop {
+                let (i, inner) = quadrant(q);
+                pdf *= node.factor[i];
+                match node.child[i] {
+                    0 => return pdf,
+                    c => {
+                        node = &st.nodes[c as usize];
+                        q = inner;
+                    }
+                }
+            }
+        };
+        for _ in 0..100_000 {
+            let d = square_to_dir(s.next_2d());
+            assert_eq!(st.pdf(d).to_bits(), by_halving(d).to_bits(), "{d}");
+        }
+        for d in [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::X,
+            -Vec3::X,
+            Vec3::Y,
+            -Vec3::Y,
+            target,
+        ] {
+            assert_eq!(st.pdf(d).to_bits(), by_halving(d).to_bits(), "{d}");
+        }
     }
 
     #[test]
