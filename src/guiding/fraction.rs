@@ -85,6 +85,13 @@ impl Fraction {
         sigmoid(self.theta) as f32
     }
 
+    /// Whether the share has reached its upper limit: the leaf learned that
+    /// the guide's samples are (nearly) wasted there, and a render samples
+    /// its bounces by the BSDF alone ([`crate::guiding::Guide::bsdf_only`]).
+    pub fn saturated(&self) -> bool {
+        self.theta >= THETA_LIMIT
+    }
+
     /// Adds one recorded bounce; every [`BATCH`] of them take an Adam step.
     /// Samples that carry nothing to learn from (no guide density, a
     /// non-finite or negative weight) are passed over.

@@ -239,6 +239,8 @@ pub struct Guide {
     pixels: Option<PixelEstimate>,
     /// Each leaf's learned share of BSDF samples ([`fraction`]).
     bsdf_shares: Vec<f32>,
+    /// Each leaf's share at its upper limit ([`Guide::bsdf_only`]).
+    bsdf_only: Vec<bool>,
 }
 
 /// What training's images estimate each pixel to be: the mean luminance of
@@ -304,6 +306,16 @@ impl Guide {
     #[inline]
     pub fn bsdf_share(&self, i: u32) -> f32 {
         self.bsdf_shares[i as usize]
+    }
+
+    /// Whether leaf `i`'s share of BSDF samples reached its upper limit
+    /// (0.982): a render then samples the leaf's bounces by the BSDF alone
+    /// and skips the guide's density at every light sample there. Training
+    /// keeps the mixture, so that the share can still come down. On the
+    /// rough metals of `glossy-env` every leaf gets there.
+    #[inline]
+    pub fn bsdf_only(&self, i: u32) -> bool {
+        self.bsdf_only[i as usize]
     }
 
     /// This guide with `pixels`, the training images' estimates.
@@ -432,6 +444,7 @@ impl GuideBuilder {
                 .iter()
                 .map(|l| l.fraction.bsdf_share())
                 .collect(),
+            bsdf_only: self.leaves.iter().map(|l| l.fraction.saturated()).collect(),
         }
     }
 
@@ -499,8 +512,10 @@ mod tests {
         // the BSDF; the others never saw a record
         let leaf = g.leaf_index(Vec3::new(0.1, 0.5, 0.5), Vec3::Y);
         assert!(g.bsdf_share(leaf) > 0.9, "{}", g.bsdf_share(leaf));
+        assert!(g.bsdf_only(leaf), "2500 steps the same way reach the limit");
         let other = g.leaf_index(Vec3::new(0.1, 0.5, 0.5), -Vec3::Y);
         assert_eq!(g.bsdf_share(other), BSDF_FRACTION);
+        assert!(!g.bsdf_only(other));
         // 40000 records against a limit of 12000: split down to 12000 or
         // less, in the +y class's tree only
         assert!(g.leaf_count() >= 4 + 5, "{} leaves", g.leaf_count());

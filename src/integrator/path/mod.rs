@@ -527,7 +527,13 @@ impl<'a> PathTracer<'a> {
                 (n, shadowing_alpha2(n, its.ns))
             });
         let guide = match (&self.guide, leaf) {
-            (Some(g), Some(l)) if !bsdf.has_delta_component() && g.leaf(l).is_usable() => Some(l),
+            (Some(g), Some(l))
+                if !bsdf.has_delta_component()
+                    && g.leaf(l).is_usable()
+                    && (self.record || !g.bsdf_only(l)) =>
+            {
+                Some(l)
+            }
             _ => None,
         };
         Shade {
