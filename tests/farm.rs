@@ -2,6 +2,8 @@
 //! one-process render's image bit for bit, in any order; merges refuse parts
 //! that do not belong together, with one line, exit 1 and no output file.
 
+mod common;
+
 use embertrace::farm::{self, Shard};
 use embertrace::image::read_exr;
 use std::path::Path;
@@ -258,32 +260,7 @@ fn a_checkpointed_render_stopped_by_sigint_resumes_to_the_same_bits() {
         "--checkpoint-every",
         "0.05",
     ]);
-    let mut child = Command::new(env!("CARGO_BIN_EXE_embertrace"))
-        .current_dir(d)
-        .args(&args)
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    // until the first checkpoint is written, within a bound far above the
-    // 0.05 s asked for (a loaded machine only makes the wait longer)
-    let start = std::time::Instant::now();
-    while !d.join("ck.exr").exists() {
-        if let Some(status) = child.try_wait().unwrap() {
-            panic!("the render ended ({status}) before its first checkpoint");
-        }
-        if start.elapsed().as_secs() > 300 {
-            child.kill().unwrap();
-            panic!("no checkpoint after 300 s");
-        }
-        std::thread::sleep(std::time::Duration::from_millis(5));
-    }
-    // the shell's built-in kill: no procps needed on a bare machine
-    let sent = Command::new("sh")
-        .args(["-c", &format!("kill -INT {}", child.id())])
-        .status()
-        .unwrap();
-    assert!(sent.success());
-    let out = child.wait_with_output().unwrap();
+    let out = common::interrupted_after_first_checkpoint(d, &args);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(130), "{err}");
     assert!(

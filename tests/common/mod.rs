@@ -392,6 +392,39 @@ pub fn run(dir: &Path, args: &[&str]) -> std::process::Output {
         .expect("embertrace runs")
 }
 
+/// The embertrace binary run in `dir` with `args` (a render with a
+/// checkpoint, `ck.exr`, written often), stopped by SIGINT as soon as its
+/// first checkpoint exists: its output. Panics if the render ends first or
+/// writes no checkpoint in 300 s.
+pub fn interrupted_after_first_checkpoint(dir: &Path, args: &[&str]) -> std::process::Output {
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_embertrace"))
+        .current_dir(dir)
+        .args(args)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // within a bound far above any checkpoint interval asked for (a loaded
+    // machine only makes the wait longer)
+    let start = std::time::Instant::now();
+    while !dir.join("ck.exr").exists() {
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("the render ended ({status}) before its first checkpoint");
+        }
+        if start.elapsed().as_secs() > 300 {
+            child.kill().unwrap();
+            panic!("no checkpoint after 300 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    // the shell's built-in kill: no procps needed on a bare machine
+    let sent = std::process::Command::new("sh")
+        .args(["-c", &format!("kill -INT {}", child.id())])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    child.wait_with_output().unwrap()
+}
+
 /// The embertrace binary run in the repository's root with `args`.
 pub fn run_here(args: &[&str]) -> std::process::Output {
     run(Path::new(env!("CARGO_MANIFEST_DIR")), args)
