@@ -354,7 +354,7 @@ impl LightBvh {
             let root = if nodes[0].leaf {
                 vec![0]
             } else {
-                children(&nodes, 0)
+                children(&nodes, 0).to_vec()
             };
             bvh.collapse(&nodes, &root, 0, 0);
         }
@@ -374,16 +374,14 @@ impl LightBvh {
                 self.trail[node.index as usize] = Some(trail);
                 LEAF | node.index
             } else {
-                let below = children(nodes, i)
-                    .into_iter()
-                    .flat_map(|c| {
-                        if nodes[c].leaf {
-                            vec![c]
-                        } else {
-                            children(nodes, c)
-                        }
-                    })
-                    .collect::<Vec<_>>();
+                let mut below = Vec::with_capacity(4);
+                for c in children(nodes, i) {
+                    if nodes[c].leaf {
+                        below.push(c);
+                    } else {
+                        below.extend(children(nodes, c));
+                    }
+                }
                 self.collapse(nodes, &below, trail, depth + 1)
             };
             self.quads[at].set(k, &node.bounds, next);
@@ -500,8 +498,8 @@ impl LightBvh {
 }
 
 /// The two children of binary interior node `i`.
-fn children(nodes: &[Node], i: usize) -> Vec<usize> {
-    vec![i + 1, nodes[i].index as usize]
+fn children(nodes: &[Node], i: usize) -> [usize; 2] {
+    [i + 1, nodes[i].index as usize]
 }
 
 /// Builds the binary subtree over `items` at `depth` into `nodes`; returns
