@@ -180,24 +180,21 @@ def sphere(centre, radius, bsdf):
     </shape>"""
 
 
+def rough_conductor(ident, material, alpha):
+    """A GGX rough conductor of one of Mitsuba's named metals."""
+    return f"""    <bsdf type="roughconductor" id="{ident}">
+        <string name="material" value="{material}"/>
+        <string name="distribution" value="ggx"/>
+        <float name="alpha" value="{alpha}"/>
+    </bsdf>"""
+
+
 def glossy_env():
     parts = [header(128, 128, 64, 24, (2.6, 1.3, 2.6), (0.0, 0.45, 0.0), 50)]
-    parts.append("""    <bsdf type="roughconductor" id="wall">
-        <string name="material" value="Al"/>
-        <string name="distribution" value="ggx"/>
-        <float name="alpha" value="0.05"/>
-    </bsdf>
-    <bsdf type="roughconductor" id="floor">
-        <string name="material" value="Au"/>
-        <string name="distribution" value="ggx"/>
-        <float name="alpha" value="0.1"/>
-    </bsdf>
-    <bsdf type="roughconductor" id="copper">
-        <string name="material" value="Cu"/>
-        <string name="distribution" value="ggx"/>
-        <float name="alpha" value="0.2"/>
-    </bsdf>
-    <bsdf type="roughplastic" id="plastic">
+    parts.append(rough_conductor("wall", "Al", "0.05"))
+    parts.append(rough_conductor("floor", "Au", "0.1"))
+    parts.append(rough_conductor("copper", "Cu", "0.2"))
+    parts.append("""    <bsdf type="roughplastic" id="plastic">
         <string name="distribution" value="ggx"/>
         <float name="alpha" value="0.1"/>
         <rgb name="diffuse_reflectance" value="0.1, 0.25, 0.6"/>
