@@ -209,16 +209,7 @@ fn a_guided_render_stopped_by_sigint_resumes_to_the_same_bits() {
         "--guiding",
         "on",
     ];
-    let mut args: Vec<&str> = common.to_vec();
-    args.extend_from_slice(&[
-        "-o",
-        "two.exr",
-        "--checkpoint",
-        "ck.exr",
-        "--checkpoint-every",
-        "0.05",
-    ]);
-    let out = common::interrupted_after_first_checkpoint(d, &args);
+    let out = common::interrupted_after_first_checkpoint(d, &common);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(
         out.status.code(),

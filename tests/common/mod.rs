@@ -392,14 +392,22 @@ pub fn run(dir: &Path, args: &[&str]) -> std::process::Output {
         .expect("embertrace runs")
 }
 
-/// The embertrace binary run in `dir` with `args` (a render with a
-/// checkpoint, `ck.exr`, written often), stopped by SIGINT as soon as its
-/// first checkpoint exists: its output. Panics if the render ends first or
-/// writes no checkpoint in 300 s.
+/// The render `args` run in `dir` with `-o two.exr --checkpoint ck.exr
+/// --checkpoint-every 0.05`, stopped by SIGINT as soon as `ck.exr` exists:
+/// its output. Panics if the render ends first or writes no checkpoint in
+/// 300 s.
 pub fn interrupted_after_first_checkpoint(dir: &Path, args: &[&str]) -> std::process::Output {
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_embertrace"))
         .current_dir(dir)
         .args(args)
+        .args([
+            "-o",
+            "two.exr",
+            "--checkpoint",
+            "ck.exr",
+            "--checkpoint-every",
+            "0.05",
+        ])
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
