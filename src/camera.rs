@@ -139,11 +139,26 @@ impl Camera {
         }
         // The pinhole direction has component 1 along the view axis, so the
         // plane in focus is reached at `focus_distance` times it.
+        // Lens point to focus point, relative to the camera origin: in world
+        // space, far from the origin (1e18), the two round to the same
+        // position and their difference to zero. Both terms are scaled by
+        // the larger of the two lengths so that neither overflows (focus
+        // 3e38) nor the squared length underflows (focus 1e-38, aperture
+        // 1e-30); the direction is unchanged by the scale.
         let d = self.corner + p.x * self.dx + p.y * self.dy;
-        let focus = self.origin + self.lens.focus_distance * d;
-        let l = self.lens.aperture_radius * square_to_concentric_disk(u_lens);
-        let o = self.origin + l.x * self.right + l.y * self.up;
-        Ray::new(o, (focus - o).normalize())
+        let disk = square_to_concentric_disk(u_lens);
+        let (focus, aperture) = (self.lens.focus_distance, self.lens.aperture_radius);
+        let s = focus.max(aperture);
+        let v = (focus / s) * d - (aperture / s) * (disk.x * self.right + disk.y * self.up);
+        let m = v.abs().max_element();
+        // `m == 0` only when `focus / s` underflows and the lens point is the
+        // centre: the pinhole ray
+        let dir = if m > 0.0 { v / m } else { d };
+        let l = aperture * disk;
+        Ray::new(
+            self.origin + l.x * self.right + l.y * self.up,
+            dir.normalize(),
+        )
     }
 }
 
@@ -271,6 +286,39 @@ mod tests {
             }
         }
         assert!(seen_off_axis, "lens samples should reach the rim");
+    }
+
+    /// Far from the world origin, or with extreme lenses, every lens ray
+    /// stays finite and unit length (a fuzzed scene once sent Embree a NaN
+    /// direction: the camera at 1.8e18, focus 1e-38).
+    #[test]
+    fn extreme_lenses_give_finite_rays() {
+        let far = CameraDesc {
+            origin: Vec3::new(1.8e18, -1.8e18, 1.8e18),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_y: 179.99,
+        };
+        for desc in [far, tilted()] {
+            for (aperture, focus) in [
+                (1e3, 1e-38),
+                (1e-30, 1e-38),
+                (3e38, 1.4e-45),
+                (1e-38, 3e38),
+                (3e38, 3e38),
+            ] {
+                let cam = Camera::with_lens(&desc, 64, 16, ThinLens::new(aperture, focus).unwrap());
+                for u in [Vec2::ZERO, Vec2::splat(0.5), Vec2::new(0.9, 0.1)] {
+                    for p in [Vec2::ZERO, Vec2::new(32.0, 8.0), Vec2::new(64.0, 16.0)] {
+                        let r = cam.generate_ray_lens(p, u);
+                        assert!(
+                            r.d.is_finite() && (r.d.length() - 1.0).abs() < 1e-5,
+                            "aperture {aperture}, focus {focus}, {p:?} {u:?}: {r:?}"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]
