@@ -185,9 +185,9 @@ fn a_checkpoint_resumes_only_under_the_same_guiding() {
 }
 
 /// A guided render stopped by SIGINT after its first checkpoint resumes to
-/// the bits of one that ran through: the resumed run trains the same
-/// guide again (training is a function of the scene, the settings and the
-/// seed) and renders the samples the checkpoint lacks.
+/// the bits of one that ran through: the checkpoint holds the guide the
+/// render sampled from, and the resumed run samples from it without
+/// training again, and renders the samples the checkpoint lacks.
 #[test]
 fn a_guided_render_stopped_by_sigint_resumes_to_the_same_bits() {
     let dir = tempfile::tempdir().unwrap();
@@ -219,13 +219,85 @@ fn a_guided_render_stopped_by_sigint_resumes_to_the_same_bits() {
     assert!(!d.join("two.exr").exists(), "no partial image");
     let (_, prov) = embertrace::farm::read_accumulation(&d.join("ck.exr")).unwrap();
     assert!(prov.samples.end < 65536, "{:?}", prov.samples);
+    let saved = embertrace::farm::read_guide(&d.join("ck.exr")).unwrap();
+    let saved = saved.expect("a guided checkpoint saves its guide");
     let mut resume: Vec<&str> = common.to_vec();
-    resume.extend_from_slice(&["-o", "two.exr", "--resume", "ck.exr"]);
+    resume.extend_from_slice(&[
+        "-o", "two.exr", "--resume", "ck.exr", "--report", "two.json",
+    ]);
     ok(d, &resume);
     let mut one: Vec<&str> = common.to_vec();
-    one.extend_from_slice(&["-o", "one.exr"]);
+    one.extend_from_slice(&["-o", "one.exr", "--report", "one.json"]);
     ok(d, &one);
     assert_eq!(bits(&d.join("two.exr")), bits(&d.join("one.exr")));
+    let report = |f: &str| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(d.join(f)).unwrap()).unwrap()
+    };
+    let (two, one) = (report("two.json"), report("one.json"));
+    assert_eq!(two["guiding"]["from_checkpoint"], true, "{two}");
+    assert_eq!(two["guiding"]["train_rays"], 0, "{two}");
+    assert_eq!(one["guiding"]["from_checkpoint"], false, "{one}");
+    assert_eq!(two["guiding"]["nodes"], saved.node_count(), "{two}");
+    assert_eq!(two["guiding"]["nodes"], one["guiding"]["nodes"]);
+    assert_eq!(two["guiding"]["iterations"], one["guiding"]["iterations"]);
+}
+
+/// A checkpoint whose saved guide was damaged is refused with one line
+/// naming the file, before any rendering, and no image is written.
+#[test]
+fn a_damaged_saved_guide_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    guided(d, "a.exr", &["--checkpoint", "ck.exr"]);
+    let (film, prov) = embertrace::farm::read_accumulation(&d.join("ck.exr")).unwrap();
+    assert!(
+        embertrace::farm::read_guide(&d.join("ck.exr"))
+            .unwrap()
+            .is_some()
+    );
+    // the file rewritten with the guide's bytes, one flipped: an EXR
+    // `bytes` attribute keeps them verbatim, so find and flip one
+    let mut raw = std::fs::read(d.join("ck.exr")).unwrap();
+    let at = raw
+        .windows(16)
+        .position(|w| w == b"embertrace-guide")
+        .expect("the guide's magic is in the header");
+    raw[at + 40] ^= 0x01;
+    std::fs::write(d.join("bad.exr"), &raw).unwrap();
+    let out = run(
+        d,
+        &[
+            "render",
+            CORNELL,
+            "-q",
+            "-r",
+            "30",
+            "22",
+            "-s",
+            "12",
+            "--guiding",
+            "on",
+            "--resume",
+            "bad.exr",
+            "-o",
+            "b.exr",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("bad.exr") && err.contains("embertrace.guide"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(!d.join("b.exr").exists());
+    // an unguided accumulation file has no guide to read
+    embertrace::farm::write_accumulation(&d.join("plain.exr"), &film, &prov).unwrap();
+    assert!(
+        embertrace::farm::read_guide(&d.join("plain.exr"))
+            .unwrap()
+            .is_none()
+    );
 }
 
 /// Independent renders (seeds `seeds`) of the Cornell box at 32 x 32,

@@ -447,8 +447,33 @@ fn limb_names(layer: &str, c: char) -> [String; 4] {
 
 const RGB: [char; 3] = ['R', 'G', 'B'];
 
+/// Name of the attribute a checkpoint of a guided render keeps its guide
+/// in (OpenEXR type `bytes`, type hint [`GUIDE_HINT`];
+/// [`crate::guiding::Guide::to_bytes`]'s format).
+pub const GUIDE_ATTRIBUTE: &str = "embertrace.guide";
+
+/// The type hint of [`GUIDE_ATTRIBUTE`].
+const GUIDE_HINT: &str = "application/x-embertrace-guide";
+
 /// Write `film` with its provenance as an accumulation file, atomically.
 pub fn write_accumulation(path: &Path, film: &Film, prov: &Provenance) -> Result<()> {
+    write_state(path, film, prov, None)
+}
+
+/// The guide a checkpoint at `path` saved ([`GUIDE_ATTRIBUTE`]), if it
+/// saved one; a guide that does not read back is an input error.
+pub fn read_guide(path: &Path) -> Result<Option<crate::guiding::Guide>> {
+    let Some(bytes) = crate::image::read_exr_bytes(path, GUIDE_ATTRIBUTE, GUIDE_HINT)? else {
+        return Ok(None);
+    };
+    crate::guiding::Guide::from_bytes(&bytes)
+        .map(Some)
+        .map_err(|e| Error::input(path, None, format!("{GUIDE_ATTRIBUTE}: {e}")))
+}
+
+/// [`write_accumulation`], with `guide` (saved guide bytes) in
+/// [`GUIDE_ATTRIBUTE`] when given.
+fn write_state(path: &Path, film: &Film, prov: &Provenance, guide: Option<&[u8]>) -> Result<()> {
     use exr::prelude::{
         AnyChannel, AnyChannels, Encoding, FlatSamples, Image, ImageAttributes, IntegerBounds,
         Layer, LayerAttributes, SmallVec, Vec2,
@@ -490,10 +515,13 @@ pub fn write_accumulation(path: &Path, film: &Film, prov: &Provenance) -> Result
     let [rw, rh] = prov
         .resolution()
         .expect("a provenance we made has a resolution");
-    let attributes = LayerAttributes {
+    let mut attributes = LayerAttributes {
         layer_position: Vec2(b.x0 as i32, b.y0 as i32),
         ..exr_layer_attributes(&prov.metadata())
     };
+    if let Some(g) = guide {
+        attributes = crate::image::with_exr_bytes(attributes, GUIDE_ATTRIBUTE, GUIDE_HINT, g);
+    }
     let layer = Layer::new(
         (b.width as usize, b.height as usize),
         attributes,
@@ -698,6 +726,10 @@ pub struct Part<'a> {
     pub resume: Option<(Film, u32)>,
     /// Save here as the render goes, and at the end.
     pub checkpoint: Option<Checkpoint>,
+    /// The guide the render samples from ([`crate::guiding::Guide::to_bytes`]),
+    /// saved with every checkpoint so that `--resume` samples from it
+    /// without training again.
+    pub guide: Option<Vec<u8>>,
     /// Set (by a signal handler) to stop after the current pass.
     pub stop: &'a std::sync::atomic::AtomicBool,
 }
@@ -748,7 +780,7 @@ pub fn render_part(
                 samples: target.start..done,
                 ..prov.clone()
             };
-            write_accumulation(&c.path, film, &p)?;
+            write_state(&c.path, film, &p, part.guide.as_deref())?;
         }
         Ok(())
     };

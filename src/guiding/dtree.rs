@@ -295,6 +295,72 @@ impl SampleTree {
         }
     }
 
+    /// Append the tree to a saved guide ([`super::persist`]).
+    pub(super) fn write(&self, w: &mut super::bytes::Writer) {
+        w.u8(u8::from(self.usable));
+        w.len(self.nodes.len());
+        for n in &self.nodes {
+            w.f32(n.p_left);
+            for v in n.p_low.into_iter().chain(n.factor) {
+                w.f32(v);
+            }
+            for c in n.child {
+                w.u32(c);
+            }
+        }
+    }
+
+    /// A tree [`SampleTree::write`] wrote, checked so that sampling and
+    /// density walks stay in it and end: children come after their node,
+    /// no node is deeper than [`MAX_DEPTH`] levels (the density's bit walk
+    /// reads 24), probabilities lie in `[0, 1]` and density factors are
+    /// finite and `>= 0`.
+    pub(super) fn read(
+        r: &mut super::bytes::Reader<'_>,
+    ) -> Result<SampleTree, super::bytes::Refusal> {
+        let usable = match r.u8()? {
+            0 => false,
+            1 => true,
+            b => return Err(format!("usable flag {b}")),
+        };
+        let n = r.count("quadtree nodes", 44)?;
+        if n == 0 {
+            return Err("a quadtree without a root".into());
+        }
+        let mut nodes = Vec::with_capacity(n);
+        let mut depth = vec![0u32; n];
+        for i in 0..n {
+            let p_left = r.f32()?;
+            let p_low = [r.f32()?, r.f32()?];
+            let factor = [r.f32()?, r.f32()?, r.f32()?, r.f32()?];
+            let child = [r.u32()?, r.u32()?, r.u32()?, r.u32()?];
+            let prob = |p: f32| (0.0..=1.0).contains(&p);
+            if !prob(p_left) || !p_low.iter().all(|&p| prob(p)) {
+                return Err(format!("quadtree node {i}: a probability outside [0, 1]"));
+            }
+            if !factor.iter().all(|f| f.is_finite() && *f >= 0.0) {
+                return Err(format!("quadtree node {i}: a density factor {factor:?}"));
+            }
+            for &c in child.iter().filter(|&&c| c != 0) {
+                let c = c as usize;
+                if c <= i || c >= n {
+                    return Err(format!("quadtree node {i}: child {c} outside the tree"));
+                }
+                depth[c] = depth[c].max(depth[i] + 1);
+                if depth[c] >= MAX_DEPTH {
+                    return Err(format!("quadtree node {c}: deeper than {MAX_DEPTH} levels"));
+                }
+            }
+            nodes.push(SampleNode {
+                p_left,
+                p_low,
+                factor,
+                child,
+            });
+        }
+        Ok(SampleTree { nodes, usable })
+    }
+
     /// Nodes in the tree.
     pub fn node_count(&self) -> usize {
         self.nodes.len()

@@ -40,8 +40,10 @@
 //! images are not added to the render's (Müller et al. 2017; their 2019
 //! inverse-variance combination is not done here).
 
+mod bytes;
 pub mod dtree;
 pub mod fraction;
+mod persist;
 
 use crate::math::Vec3;
 use dtree::{BuildTree, SampleTree};

@@ -272,6 +272,59 @@ pub fn read_exr_metadata(path: &Path) -> Result<Vec<(String, String)>> {
     Ok(pairs)
 }
 
+/// The bytes of attribute `name` of type `bytes` (OpenEXR 3's type for
+/// application data, here with type hint `hint`) in the first header of
+/// the OpenEXR file at `path`, if it has one. Only the header is read.
+pub(crate) fn read_exr_bytes(path: &Path, name: &str, hint: &str) -> Result<Option<Vec<u8>>> {
+    use ::exr::meta::attribute::AttributeValue;
+
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let meta = ::exr::meta::MetaData::read_from_unbuffered(file, false)
+        .map_err(|e| exr_read_error(path, e))?;
+    let Some(header) = meta.headers.first() else {
+        return Err(Error::input(path, None, "OpenEXR file has no header"));
+    };
+    let found = header
+        .own_attributes
+        .other
+        .iter()
+        .chain(&header.shared_attributes.other)
+        .find(|(n, _)| n.as_slice() == name.as_bytes());
+    match found {
+        None => Ok(None),
+        Some((_, AttributeValue::Bytes { type_hint, bytes }))
+            if type_hint.as_slice() == hint.as_bytes() =>
+        {
+            Ok(Some(bytes.to_vec()))
+        }
+        Some(_) => Err(Error::input(
+            path,
+            None,
+            format!("attribute `{name}` is not of type bytes with type hint `{hint}`"),
+        )),
+    }
+}
+
+/// `attributes` with attribute `name` of type `bytes` (type hint `hint`)
+/// holding `bytes`.
+pub(crate) fn with_exr_bytes(
+    mut attributes: LayerAttributes,
+    name: &str,
+    hint: &str,
+    bytes: &[u8],
+) -> LayerAttributes {
+    use ::exr::meta::attribute::{AttributeValue, Text};
+
+    attributes.other.insert(
+        Text::from_slice_unchecked(name.as_bytes()),
+        AttributeValue::Bytes {
+            type_hint: Text::from_slice_unchecked(hint.as_bytes()),
+            bytes: bytes.into(),
+        },
+    );
+    attributes
+}
+
 /// Every channel of the first layer of the OpenEXR file at `path`, with the
 /// layer's attributes (the farm's accumulation files). A file that opens but
 /// does not decode is an input error.

@@ -19,7 +19,8 @@ mod srgb;
 
 pub use self::exr::{ExrLayer, read_exr, read_exr_metadata, write_exr_layers};
 pub(crate) use self::exr::{
-    check_exr_sizes, exr_layer_attributes, read_exr_channels, write_exr_image,
+    check_exr_sizes, exr_layer_attributes, read_exr_bytes, read_exr_channels, with_exr_bytes,
+    write_exr_image,
 };
 pub(crate) use atomic::write_atomically;
 pub use atomic::write_file_atomically;

@@ -102,6 +102,9 @@ pub struct GuidingReport {
     pub leaves: usize,
     /// Its directional nodes, all leaves together.
     pub nodes: usize,
+    /// The guide was read from the checkpoint the render resumes
+    /// ([`resume`]): no pre-pass, no training.
+    pub from_checkpoint: bool,
 }
 
 impl GuidingReport {
@@ -118,6 +121,7 @@ impl GuidingReport {
             train_rays: RayCounts::default(),
             leaves: 0,
             nodes: 0,
+            from_checkpoint: false,
         }
     }
 
@@ -141,7 +145,12 @@ impl GuidingReport {
             }
             s
         });
-        if self.on && self.iterations == 0 {
+        if self.from_checkpoint {
+            format!(
+                "guiding on ({}): the checkpoint's guide ({} iterations, {} leaves, {} nodes), not trained again",
+                self.mode, self.iterations, self.leaves, self.nodes
+            )
+        } else if self.on && self.iterations == 0 {
             format!("guiding on ({}){share}", self.mode)
         } else if self.on {
             format!(
@@ -456,6 +465,29 @@ pub fn train(
         train_rays: rays,
         leaves,
         nodes,
+        from_checkpoint: false,
+    }
+}
+
+/// Guide `tracer` by `guide`, which a checkpoint of this render saved
+/// (`--resume`): the guide that [`prepare`] trained for `request` when the
+/// render began, so the resumed samples are those an uninterrupted render
+/// takes, without the pre-pass or the training. The report names the
+/// iterations that trained it, as the checkpoint's settings do.
+pub fn resume(
+    tracer: &mut PathTracer<'_>,
+    guide: crate::guiding::Guide,
+    request: &GuidingRequest,
+) -> GuidingReport {
+    let (leaves, nodes) = (guide.leaf_count(), guide.node_count());
+    tracer.set_guide(Some(Arc::new(guide)));
+    GuidingReport {
+        on: true,
+        iterations: request.train_settings().iterations,
+        leaves,
+        nodes,
+        from_checkpoint: true,
+        ..GuidingReport::off(request.mode)
     }
 }
 

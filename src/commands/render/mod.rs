@@ -503,19 +503,29 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     budget.max_spp = spp;
     let progressive = budget.is_progressive() || reference.is_some();
-    let guiding = crate::integrator::training::prepare(
-        &mut tracer,
-        &scene,
-        &camera,
-        &crate::integrator::training::GuidingRequest {
-            mode: args.guiding,
-            resolution,
-            seed,
-            spp,
-            progressive: budget.is_progressive(),
-        },
-        &render::thread_pool(resolved.threads)?,
-    );
+    let request = crate::integrator::training::GuidingRequest {
+        mode: args.guiding,
+        resolution,
+        seed,
+        spp,
+        progressive: budget.is_progressive(),
+    };
+    // a guided checkpoint carries its guide: resume samples from it (under
+    // --guiding off it is left, and the settings' check refuses the file)
+    let saved_guide = match &args.resume {
+        Some(path) if args.guiding != GuidingMode::Off => farm::read_guide(path)?,
+        _ => None,
+    };
+    let guiding = match saved_guide {
+        Some(guide) => crate::integrator::training::resume(&mut tracer, guide, &request),
+        None => crate::integrator::training::prepare(
+            &mut tracer,
+            &scene,
+            &camera,
+            &request,
+            &render::thread_pool(resolved.threads)?,
+        ),
+    };
     if args.guiding != GuidingMode::Off {
         say(&guiding.describe());
     }
@@ -860,6 +870,11 @@ fn render_farm(
     let part = farm::Part {
         provenance: provenance.clone(),
         resume,
+        // only a checkpoint keeps the guide: shards and crops train their own
+        guide: checkpoint
+            .as_ref()
+            .and_then(|_| tracer.guide())
+            .map(crate::guiding::Guide::to_bytes),
         checkpoint: checkpoint.clone(),
         stop: &STOP,
     };

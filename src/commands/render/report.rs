@@ -153,6 +153,9 @@ pub struct GuidingSummary {
     pub leaves: usize,
     /// Its directional quadtree nodes.
     pub nodes: usize,
+    /// The guide was read from the checkpoint the render resumed (no
+    /// pre-pass, no training).
+    pub from_checkpoint: bool,
 }
 
 impl GuidingSummary {
@@ -171,6 +174,7 @@ impl GuidingSummary {
             train_rays: g.train_rays.total(),
             leaves: g.leaves,
             nodes: g.nodes,
+            from_checkpoint: g.from_checkpoint,
         }
     }
 }
