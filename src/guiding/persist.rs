@@ -312,4 +312,41 @@ mod tests {
         assert!(e.contains("more than the file holds"), "{e}");
         assert_eq!(Guide::from_bytes(&reseal(g.to_bytes())).unwrap(), g);
     }
+
+    /// Any byte changed and the digest remade: the guide is refused, or
+    /// every lookup, draw and density of it ends without a panic.
+    #[test]
+    fn resealed_changes_anywhere_are_refused_or_safe_to_sample() {
+        let bytes = trained().to_bytes();
+        let (mut refused, mut read) = (0, 0);
+        for at in (0..bytes.len() - 8).step_by(7) {
+            for flip in [0x01u8, 0x80, 0xff] {
+                let mut b = bytes[..bytes.len() - 8].to_vec();
+                b[at] ^= flip;
+                let d = digest(&b);
+                b.extend_from_slice(&d.to_le_bytes());
+                let Ok(g) = Guide::from_bytes(&b) else {
+                    refused += 1;
+                    continue;
+                };
+                read += 1;
+                for k in 0..16u64 {
+                    let u = |s: u32| {
+                        (mix64(k ^ (u64::from(s) << 32)) >> 40) as f32 / (1u64 << 24) as f32
+                    };
+                    let p = Vec3::new(u(1), u(2), u(3)) * 3.0 - 1.0;
+                    let n = Vec3::new(u(4) - 0.5, u(5) - 0.5, u(6) - 0.5);
+                    let i = g.leaf_index(p, n);
+                    let leaf = g.leaf(i);
+                    if leaf.is_usable() {
+                        let (dir, pdf) = leaf.sample(crate::math::Vec2::new(u(7), u(8)));
+                        assert!(pdf >= 0.0 && leaf.pdf(dir) >= 0.0);
+                    }
+                    let _ = (g.leaf_radiance(i), g.bsdf_share(i), g.bsdf_only(i));
+                    let _ = g.roulette_scale(k as u32 % 4, k as u32 % 3);
+                }
+            }
+        }
+        assert!(refused > 0 && read > 0, "refused {refused}, read {read}");
+    }
 }
