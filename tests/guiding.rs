@@ -42,9 +42,10 @@ fn ok(dir: &Path, args: &[&str]) -> Output {
     out
 }
 
-/// A guided 30 x 22 render of the Cornell box (sides that cut the 4 x 4
-/// blocks), 12 spp, plus `extra`.
-fn guided(dir: &Path, out: &str, extra: &[&str]) {
+/// A 30 x 22 render of the Cornell box (sides that cut the 4 x 4 blocks),
+/// 12 spp, under `--guiding guiding`, into `out`, plus `extra`, however it
+/// ends.
+fn small(dir: &Path, guiding: &str, out: &str, extra: &[&str]) -> Output {
     let mut args = vec![
         "render",
         CORNELL,
@@ -55,12 +56,22 @@ fn guided(dir: &Path, out: &str, extra: &[&str]) {
         "-s",
         "12",
         "--guiding",
-        "on",
+        guiding,
         "-o",
         out,
     ];
     args.extend_from_slice(extra);
-    ok(dir, &args);
+    run(dir, &args)
+}
+
+/// [`small`], guided, which must succeed.
+fn guided(dir: &Path, out: &str, extra: &[&str]) {
+    let o = small(dir, "on", out, extra);
+    assert!(
+        o.status.success(),
+        "guided render failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
 }
 
 fn bits(path: &Path) -> Vec<u32> {
@@ -156,25 +167,7 @@ fn a_checkpoint_resumes_only_under_the_same_guiding() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     guided(d, "a.exr", &["--checkpoint", "ck.exr"]);
-    let out = run(
-        d,
-        &[
-            "render",
-            CORNELL,
-            "-q",
-            "-r",
-            "30",
-            "22",
-            "-s",
-            "12",
-            "--guiding",
-            "off",
-            "--resume",
-            "ck.exr",
-            "-o",
-            "b.exr",
-        ],
-    );
+    let out = small(d, "off", "b.exr", &["--resume", "ck.exr"]);
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("guiding"), "{err}");
@@ -264,25 +257,7 @@ fn a_damaged_saved_guide_is_refused() {
         .expect("the guide's magic is in the header");
     raw[at + 40] ^= 0x01;
     std::fs::write(d.join("bad.exr"), &raw).unwrap();
-    let out = run(
-        d,
-        &[
-            "render",
-            CORNELL,
-            "-q",
-            "-r",
-            "30",
-            "22",
-            "-s",
-            "12",
-            "--guiding",
-            "on",
-            "--resume",
-            "bad.exr",
-            "-o",
-            "b.exr",
-        ],
-    );
+    let out = small(d, "on", "b.exr", &["--resume", "bad.exr"]);
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
