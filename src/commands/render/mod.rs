@@ -218,7 +218,8 @@ pub struct RenderArgs {
     )]
     checkpoint_every: f64,
     /// Continue the render saved in FILE to -s samples per pixel (it keeps
-    /// saving to FILE unless --checkpoint names another).
+    /// saving to FILE unless --checkpoint names another); a guided render
+    /// samples from the guide FILE holds, without training again.
     #[arg(long, value_name = "FILE")]
     resume: Option<PathBuf>,
     /// Write the per-pixel variance of the mean, per channel, as EXR.
