@@ -63,6 +63,7 @@ pub mod denoise;
 pub mod farm;
 pub mod film;
 pub mod guiding;
+pub mod hash;
 pub mod image;
 pub mod integrator;
 pub mod light;

@@ -33,12 +33,11 @@ const MAGIC: &[u8; 16] = b"embertrace-guide";
 /// The format's version: a reader refuses others.
 const VERSION: u32 = 1;
 
-/// FNV-1a over `bytes` (as [`crate::farm::Fnv`], which this module may not
-/// depend on: the guide sits below the farm).
+/// The FNV-1a digest of `bytes` ([`crate::hash::Fnv`]).
 fn digest(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-    })
+    let mut h = crate::hash::Fnv::default();
+    h.bytes(bytes);
+    h.finish()
 }
 
 impl Guide {
