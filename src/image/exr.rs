@@ -249,17 +249,8 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
 pub fn read_exr_metadata(path: &Path) -> Result<Vec<(String, String)>> {
     use ::exr::meta::attribute::AttributeValue;
 
-    let file = File::open(path).map_err(|e| Error::io(path, e))?;
-    let meta = ::exr::meta::MetaData::read_from_unbuffered(file, false)
-        .map_err(|e| exr_read_error(path, e))?;
-    let Some(header) = meta.headers.first() else {
-        return Err(Error::input(path, None, "OpenEXR file has no header"));
-    };
-    let mut pairs: Vec<(String, String)> = header
-        .own_attributes
-        .other
-        .iter()
-        .chain(&header.shared_attributes.other)
+    let mut pairs: Vec<(String, String)> = custom_attributes(path)?
+        .into_iter()
         .filter_map(|(name, value)| match value {
             AttributeValue::Text(text) => Some((
                 String::from_utf8_lossy(name.as_slice()).into_owned(),
@@ -272,30 +263,46 @@ pub fn read_exr_metadata(path: &Path) -> Result<Vec<(String, String)>> {
     Ok(pairs)
 }
 
+/// The custom attributes (those OpenEXR does not define) of the first
+/// header of the OpenEXR file at `path`, the header's own and its shared
+/// ones. Only the header is read.
+fn custom_attributes(
+    path: &Path,
+) -> Result<
+    Vec<(
+        ::exr::meta::attribute::Text,
+        ::exr::meta::attribute::AttributeValue,
+    )>,
+> {
+    let file = File::open(path).map_err(|e| Error::io(path, e))?;
+    let meta = ::exr::meta::MetaData::read_from_unbuffered(file, false)
+        .map_err(|e| exr_read_error(path, e))?;
+    let Some(header) = meta.headers.into_iter().next() else {
+        return Err(Error::input(path, None, "OpenEXR file has no header"));
+    };
+    Ok(header
+        .own_attributes
+        .other
+        .into_iter()
+        .chain(header.shared_attributes.other)
+        .collect())
+}
+
 /// The bytes of attribute `name` of type `bytes` (OpenEXR 3's type for
 /// application data, here with type hint `hint`) in the first header of
 /// the OpenEXR file at `path`, if it has one. Only the header is read.
 pub(crate) fn read_exr_bytes(path: &Path, name: &str, hint: &str) -> Result<Option<Vec<u8>>> {
     use ::exr::meta::attribute::AttributeValue;
 
-    let file = File::open(path).map_err(|e| Error::io(path, e))?;
-    let meta = ::exr::meta::MetaData::read_from_unbuffered(file, false)
-        .map_err(|e| exr_read_error(path, e))?;
-    let Some(header) = meta.headers.first() else {
-        return Err(Error::input(path, None, "OpenEXR file has no header"));
-    };
-    let found = header
-        .own_attributes
-        .other
-        .iter()
-        .chain(&header.shared_attributes.other)
+    let found = custom_attributes(path)?
+        .into_iter()
         .find(|(n, _)| n.as_slice() == name.as_bytes());
     match found {
         None => Ok(None),
         Some((_, AttributeValue::Bytes { type_hint, bytes }))
             if type_hint.as_slice() == hint.as_bytes() =>
         {
-            Ok(Some(bytes.to_vec()))
+            Ok(Some(bytes.into_vec()))
         }
         Some(_) => Err(Error::input(
             path,
