@@ -75,18 +75,14 @@ impl<'a> Reader<'a> {
     /// [`MAX_ENTRIES`], and no more than the bytes left could hold.
     pub(crate) fn count(&mut self, what: &str, min_bytes: usize) -> Result<usize, Refusal> {
         let n = self.u32()?;
-        let left = self.bytes.len() - self.at;
-        if n > MAX_ENTRIES || (n as usize).saturating_mul(min_bytes) > left {
+        if n > MAX_ENTRIES || (n as usize).saturating_mul(min_bytes) > self.left() {
             return Err(format!("{n} {what}: more than the file holds"));
         }
         Ok(n as usize)
     }
-}
-
-impl Reader<'_> {
     /// `n` entries of `bytes` each must remain.
     pub(crate) fn count_exact(&self, n: usize, bytes: usize) -> Result<usize, Refusal> {
-        if n.saturating_mul(bytes) > self.bytes.len() - self.at {
+        if n.saturating_mul(bytes) > self.left() {
             return Err(format!("{n} entries: more than the file holds"));
         }
         Ok(n)
