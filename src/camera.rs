@@ -89,6 +89,10 @@ pub struct Camera {
     /// Unit vector up in the image (the lens's second axis).
     up: Vec3,
     lens: ThinLens,
+    /// The focus distance and the aperture radius over the larger of the
+    /// two ([`Camera::generate_ray_lens`]'s scale, so that neither
+    /// overflows nor underflows).
+    lens_scale: (f32, f32),
 }
 
 impl Camera {
@@ -113,6 +117,11 @@ impl Camera {
             right,
             up,
             lens,
+            lens_scale: {
+                let (f, a) = (lens.focus_distance, lens.aperture_radius);
+                let s = f.max(a);
+                (f / s, a / s)
+            },
         }
     }
 
@@ -147,14 +156,13 @@ impl Camera {
         // 1e-30); the direction is unchanged by the scale.
         let d = self.corner + p.x * self.dx + p.y * self.dy;
         let disk = square_to_concentric_disk(u_lens);
-        let (focus, aperture) = (self.lens.focus_distance, self.lens.aperture_radius);
-        let s = focus.max(aperture);
-        let v = (focus / s) * d - (aperture / s) * (disk.x * self.right + disk.y * self.up);
+        let (focus, aperture) = self.lens_scale;
+        let v = focus * d - aperture * (disk.x * self.right + disk.y * self.up);
         let m = v.abs().max_element();
-        // `m == 0` only when `focus / s` underflows and the lens point is the
-        // centre: the pinhole ray
+        // `m == 0` only when the scaled focus distance underflows and the
+        // lens point is the centre: the pinhole ray
         let dir = if m > 0.0 { v / m } else { d };
-        let l = aperture * disk;
+        let l = self.lens.aperture_radius * disk;
         Ray::new(
             self.origin + l.x * self.right + l.y * self.up,
             dir.normalize(),
