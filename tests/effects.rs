@@ -536,6 +536,65 @@ fn environment_map_furnace_bsdf_only_is_exact() {
 }
 
 #[test]
+fn a_diffuse_floor_under_a_uniform_map_samples_its_bsdf_alone_by_default() {
+    // The map's density peaks at 1 / (4 pi), the cosine lobe at 1 / pi: at
+    // the default MIS the bounce skips light sampling
+    // (LIGHT_SAMPLING_PEAK_RATIO), so every sample is exactly rho, as with
+    // BSDF sampling alone; light samples would add noise.
+    let env = EnvironmentMap::new(map(16, 8, |_, _| Vec3::splat(0.5)), Vec3::splat(2.0)).unwrap();
+    let rho = 0.6;
+    let scene = floor_scene(rho, env);
+    let settings = IntegratorSettings {
+        max_depth: 8,
+        ..IntegratorSettings::default()
+    };
+    assert_eq!(settings.direct, DirectStrategy::Mis);
+    for backend in Backend::available() {
+        let out = render_with(&scene, backend, None, settings, [12, 12], 8, 2);
+        for v in out.film.to_rgb_f32() {
+            assert!((v - rho).abs() < 1e-5, "{backend}: {v} vs {rho}");
+        }
+    }
+}
+
+#[test]
+fn a_map_more_concentrated_than_the_lobe_is_still_light_sampled() {
+    // a spot 100 times the rest: the map's density peaks far above 1 / pi,
+    // so MIS runs, and the render is not the BSDF-only one
+    let f = |u: f32, v: f32| {
+        if (u - 0.3).abs() < 0.05 && (v - 0.3).abs() < 0.06 {
+            Vec3::splat(50.0)
+        } else {
+            Vec3::splat(0.5)
+        }
+    };
+    let env = EnvironmentMap::new(map(64, 32, f), Vec3::ONE).unwrap();
+    assert!(
+        env.peak_pdf() > 4.0 * std::f32::consts::FRAC_1_PI,
+        "{}",
+        env.peak_pdf()
+    );
+    let scene = floor_scene(0.6, env);
+    let render = |direct| {
+        let settings = IntegratorSettings {
+            direct,
+            max_depth: 8,
+            ..IntegratorSettings::default()
+        };
+        render_with(&scene, Backend::Bvh, None, settings, [12, 12], 8, 1)
+            .film
+            .to_rgb_f32()
+    };
+    let (mis, bsdf) = (render(DirectStrategy::Mis), render(DirectStrategy::Bsdf));
+    let differ = mis.iter().zip(&bsdf).filter(|(a, b)| a != b).count();
+    assert!(
+        differ > mis.len() / 2,
+        "{differ} of {} values differ",
+        mis.len()
+    );
+}
+
+#[test]
 fn environment_map_lights_a_floor_by_its_cosine_integral() {
     // a non-constant map: a sky gradient and a bright patch
     let f = |u: f32, v: f32| {

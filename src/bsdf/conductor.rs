@@ -121,6 +121,20 @@ impl Bxdf for Conductor {
     fn has_delta_component(&self) -> bool {
         self.microfacet.is_smooth()
     }
+
+    /// The visible-normal density of `wi` is `G1(wo) D(h) / (4 wo.z)`; at
+    /// `h` the normal (`wi` the mirror direction, above the surface) `D` is
+    /// `1 / (pi alpha^2)` for GGX and Beckmann alike, and `G1(wo) / wo.z >= 1`
+    /// for `alpha <= 1` (for GGX it is `2 / (cos + sqrt(cos^2 + alpha^2
+    /// sin^2))`), so the peak is at least `1 / (4 pi alpha^2)`.
+    fn lobe_peak_pdf(&self) -> f32 {
+        let a = self.microfacet.alpha;
+        if a <= 1.0 {
+            1.0 / (4.0 * std::f32::consts::PI * a * a)
+        } else {
+            0.0
+        }
+    }
 }
 
 #[cfg(test)]
@@ -142,5 +156,38 @@ mod tests {
         assert!((s.weight() - c.fresnel(0.8)).abs().max_element() < 1e-6);
         assert_eq!(c.eval(wo, s.wi), Vec3::ZERO);
         assert_eq!(c.pdf(wo, s.wi), 0.0);
+    }
+
+    #[test]
+    fn lobe_peak_pdf_bounds_the_density_at_the_mirror_direction() {
+        for dist in [Distribution::Ggx, Distribution::Beckmann] {
+            for alpha in [1e-3, 0.01, 0.05, 0.1, 0.3, 0.7, 1.0] {
+                let c = Conductor {
+                    eta: Vec3::splat(0.2),
+                    k: Vec3::splat(3.9),
+                    microfacet: Microfacet::new(dist, alpha),
+                };
+                let floor = c.lobe_peak_pdf();
+                assert!(floor > 0.0 && floor.is_finite(), "{dist:?} {alpha}");
+                // from normal incidence to 0.01 above the horizon
+                for i in 0..=99 {
+                    let cos = 1.0 - i as f32 / 100.0;
+                    let wo = Vec3::new((1.0 - cos * cos).sqrt(), 0.0, cos);
+                    let mirror = Vec3::new(-wo.x, -wo.y, wo.z);
+                    let pdf = c.pdf(wo, mirror);
+                    assert!(
+                        pdf >= floor * (1.0 - 1e-4),
+                        "{dist:?} alpha {alpha} cos {cos}: {pdf} < {floor}"
+                    );
+                }
+            }
+        }
+        // rougher than 1 claims nothing
+        let rough = Conductor {
+            eta: Vec3::splat(0.2),
+            k: Vec3::splat(3.9),
+            microfacet: Microfacet::new(Distribution::Ggx, 1.5),
+        };
+        assert_eq!(rough.lobe_peak_pdf(), 0.0);
     }
 }

@@ -73,6 +73,11 @@ impl Bxdf for Diffuse {
     fn has_delta_component(&self) -> bool {
         false
     }
+
+    /// `cos / pi` peaks at `1 / pi`, along the normal, whatever `wo`.
+    fn lobe_peak_pdf(&self) -> f32 {
+        std::f32::consts::FRAC_1_PI
+    }
 }
 
 #[cfg(test)]

@@ -165,6 +165,18 @@ pub trait Bxdf {
     fn eta(&self) -> f32 {
         1.0
     }
+
+    /// A lower bound on how concentrated every non-delta lobe's sampling
+    /// is: for every `wo` above the surface, each such lobe's solid-angle
+    /// density [`Bxdf::pdf`] peaks at least this high. Where it is far above
+    /// every light's density, light sampling's MIS weight is small wherever
+    /// the BSDF is not, and the path tracer samples the BSDF alone
+    /// ([`crate::integrator`]'s `LIGHT_SAMPLING_PEAK_RATIO`). 0, the
+    /// default, claims nothing (a BSDF with a broad lobe, or one not
+    /// analysed).
+    fn lobe_peak_pdf(&self) -> f32 {
+        0.0
+    }
 }
 
 /// Any of the BSDFs, for code that does not specialise on the material.
@@ -237,6 +249,10 @@ impl Bxdf for Bsdf {
 
     fn eta(&self) -> f32 {
         dispatch!(self, b => b.eta())
+    }
+
+    fn lobe_peak_pdf(&self) -> f32 {
+        dispatch!(self, b => b.lobe_peak_pdf())
     }
 }
 

@@ -4,10 +4,10 @@
 use crate::accel::{self, Backend};
 use crate::error::Result;
 use crate::guiding::GuidingMode;
-use crate::integrator::PathTracer;
 use crate::integrator::training::{
     AUTO_INDIRECT_SHARE, AUTO_MIN_SPP, GuidingReport, GuidingRequest, prepare,
 };
+use crate::integrator::{BsdfAlone, PathTracer};
 use crate::plan::Plan;
 use crate::scene::Scene;
 use crate::settings::{self, Flags, LightSampler};
@@ -40,7 +40,9 @@ pub struct PlanArgs {
     guiding: GuidingMode,
     /// Print JSON: `effects` (the names that are on), `kernel`, `details`,
     /// `guiding` (`mode`, `on`, `indirect_share`, `threshold`,
-    /// `variance_ratio`, `cost_ratio`, `spp`, `min_spp`).
+    /// `variance_ratio`, `cost_ratio`, `spp`, `min_spp`), `bsdf_alone`
+    /// (`lights_peak_pdf`, `from`, `materials`: where bounces skip light
+    /// sampling).
     #[arg(long)]
     json: bool,
 }
@@ -57,6 +59,7 @@ pub fn run(args: PlanArgs) -> Result<()> {
     let settings = settings::resolve(&scene.render, scene.resolution, &flags)?;
     let plan = Plan::new(&scene, &settings.integrator);
     let guiding = decide_guiding(&scene, &settings, args.guiding)?;
+    let alone = BsdfAlone::of(&scene, &settings.integrator);
     if args.json {
         let mut v: serde_json::Value = serde_json::from_str(&plan.json())
             .map_err(|e| crate::error::Error::Settings(format!("plan JSON: {e}")))?;
@@ -70,10 +73,16 @@ pub fn run(args: PlanArgs) -> Result<()> {
             "spp": settings.spp,
             "min_spp": AUTO_MIN_SPP,
         });
+        v["bsdf_alone"] = serde_json::json!({
+            "lights_peak_pdf": alone.lights_peak_pdf,
+            "from": alone.from,
+            "materials": alone.materials,
+        });
         println!("{v}");
     } else {
         println!("effects plan for {}:", args.scene.display());
         print!("{}", plan.text());
+        println!("{}", alone.describe());
         println!("{}", guiding.describe());
     }
     Ok(())

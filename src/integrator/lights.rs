@@ -291,6 +291,22 @@ impl Lights {
             || !self.directionals.is_empty()
     }
 
+    /// The largest solid-angle density light sampling reaches, from any
+    /// point, when every light is at infinity (the uniform environment's
+    /// `1 / (4 pi)`, the map's [`EnvironmentMap::peak_pdf`]); `None` when
+    /// some light is not, as the density of a light at a finite distance
+    /// grows without bound as a point nears it.
+    pub fn peak_pdf(&self) -> Option<f32> {
+        if !self.area.is_empty() || self.has_unreachable() || !self.has_environment() {
+            return None;
+        }
+        let uniform = self
+            .environment
+            .map_or(0.0, |_| 0.25 * std::f32::consts::FRAC_1_PI);
+        let map = self.environment_map.as_ref().map_or(0.0, |m| m.peak_pdf());
+        Some(uniform.max(map))
+    }
+
     /// Whether an escaping ray sees any radiance.
     pub fn has_environment(&self) -> bool {
         self.environment.is_some() || self.environment_map.is_some()
