@@ -516,23 +516,28 @@ fn floor_scene(rho: f32, env: EnvironmentMap) -> Scene {
     scene
 }
 
-#[test]
-fn environment_map_furnace_bsdf_only_is_exact() {
-    // hard case 23 with a map: constant 0.5 texels scaled by 2
+/// Hard case 23 with a map (constant 0.5 texels scaled by 2) over a floor
+/// of albedo 0.6, rendered with `direct`: every sample must be exactly 0.6.
+fn assert_uniform_map_furnace_is_exact(direct: DirectStrategy) {
     let env = EnvironmentMap::new(map(16, 8, |_, _| Vec3::splat(0.5)), Vec3::splat(2.0)).unwrap();
     let rho = 0.6;
     let scene = floor_scene(rho, env);
     let settings = IntegratorSettings {
-        direct: DirectStrategy::Bsdf,
+        direct,
         max_depth: 8,
         ..IntegratorSettings::default()
     };
     for backend in Backend::available() {
         let out = render_with(&scene, backend, None, settings, [12, 12], 8, 2);
         for v in out.film.to_rgb_f32() {
-            assert!((v - rho).abs() < 1e-5, "{backend}: {v} vs {rho}");
+            assert!((v - rho).abs() < 1e-5, "{direct} {backend}: {v} vs {rho}");
         }
     }
+}
+
+#[test]
+fn environment_map_furnace_bsdf_only_is_exact() {
+    assert_uniform_map_furnace_is_exact(DirectStrategy::Bsdf);
 }
 
 #[test]
@@ -541,20 +546,8 @@ fn a_diffuse_floor_under_a_uniform_map_samples_its_bsdf_alone_by_default() {
     // the default MIS the bounce skips light sampling
     // (LIGHT_SAMPLING_PEAK_RATIO), so every sample is exactly rho, as with
     // BSDF sampling alone; light samples would add noise.
-    let env = EnvironmentMap::new(map(16, 8, |_, _| Vec3::splat(0.5)), Vec3::splat(2.0)).unwrap();
-    let rho = 0.6;
-    let scene = floor_scene(rho, env);
-    let settings = IntegratorSettings {
-        max_depth: 8,
-        ..IntegratorSettings::default()
-    };
-    assert_eq!(settings.direct, DirectStrategy::Mis);
-    for backend in Backend::available() {
-        let out = render_with(&scene, backend, None, settings, [12, 12], 8, 2);
-        for v in out.film.to_rgb_f32() {
-            assert!((v - rho).abs() < 1e-5, "{backend}: {v} vs {rho}");
-        }
-    }
+    assert_eq!(IntegratorSettings::default().direct, DirectStrategy::Mis);
+    assert_uniform_map_furnace_is_exact(DirectStrategy::Mis);
 }
 
 #[test]
