@@ -19,6 +19,10 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 const CORNELL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.toml");
+const GLOSSY_ENV: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/benches/race/hard/glossy-env.xml"
+);
 const DOOR: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/benches/race/hard/door-ajar.xml"
@@ -477,6 +481,8 @@ fn auto_decides_the_door_scene_by_its_guided_pre_pass() {
     // and here guiding pays (measured: 0.41x the variance at 2.36x the
     // time per sample)
     assert_eq!(g["on"], true, "{g}");
+    // the guide lowered the variance early on, so training ran to its end
+    assert!(g["gave_up_after"].is_null(), "{g}");
     // the same decision twice: it is a function of the scene and the seed
     assert_eq!(plan("128"), g);
     // below `min_spp` the guide would learn too little: the share alone
@@ -485,6 +491,30 @@ fn auto_decides_the_door_scene_by_its_guided_pre_pass() {
     assert_eq!(few["on"], false, "{few}");
     assert!(few["variance_ratio"].is_null(), "{few}");
     assert_eq!(few["indirect_share"], g["indirect_share"]);
+}
+
+/// Under a sky, rough metals' light is the BSDF's to find: the guide
+/// lowers nothing, and `auto` stops training after its early probe
+/// (measured: 1.06x the variance after 3 iterations).
+#[test]
+fn auto_stops_training_a_guide_that_lowers_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = ok(dir.path(), &["plan", GLOSSY_ENV, "-s", "128", "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let g = &v["guiding"];
+    assert!(
+        g["indirect_share"].as_f64().unwrap() >= g["threshold"].as_f64().unwrap(),
+        "{g}"
+    );
+    assert_eq!(g["gave_up_after"], 3, "{g}");
+    assert!(g["variance_ratio"].as_f64().unwrap() >= 1.0, "{g}");
+    assert_eq!(g["on"], false, "{g}");
+    let text = ok(dir.path(), &["plan", GLOSSY_ENV, "-s", "128"]);
+    let text = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        text.contains("after 3 training iterations") && text.contains("training stopped"),
+        "{text}"
+    );
 }
 
 /// A guided render's roulette is adjoint-driven: how long a path lives

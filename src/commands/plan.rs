@@ -40,7 +40,8 @@ pub struct PlanArgs {
     guiding: GuidingMode,
     /// Print JSON: `effects` (the names that are on), `kernel`, `details`,
     /// `guiding` (`mode`, `on`, `indirect_share`, `threshold`,
-    /// `variance_ratio`, `cost_ratio`, `spp`, `min_spp`), `bsdf_alone`
+    /// `variance_ratio`, `cost_ratio`, `gave_up_after`, `spp`, `min_spp`),
+    /// `bsdf_alone`
     /// (`lights_peak_pdf`, `from`, `materials`: where bounces skip light
     /// sampling).
     #[arg(long)]
@@ -70,6 +71,7 @@ pub fn run(args: PlanArgs) -> Result<()> {
             "threshold": AUTO_INDIRECT_SHARE,
             "variance_ratio": guiding.auto.and_then(|m| m.variance_ratio),
             "cost_ratio": guiding.auto.and_then(|m| m.cost_ratio),
+            "gave_up_after": guiding.auto.and_then(|m| m.gave_up_after),
             "spp": settings.spp,
             "min_spp": AUTO_MIN_SPP,
         });

@@ -138,7 +138,11 @@ impl GuidingReport {
                     "; too few samples to learn a guide from (auto guides from {AUTO_MIN_SPP} spp)"
                 );
             }
-            if let (Some(v), Some(c)) = (m.variance_ratio, m.cost_ratio) {
+            if let (Some(v), Some(c), Some(k)) = (m.variance_ratio, m.cost_ratio, m.gave_up_after) {
+                s += &format!(
+                    "; after {k} training iterations, guided, its variance was {v:.2}x (at {c:.2}x the time per sample): training stopped"
+                );
+            } else if let (Some(v), Some(c)) = (m.variance_ratio, m.cost_ratio) {
                 s += &format!(
                     "; guided, its variance is {v:.2}x at {c:.2}x the time per sample (auto guides when the product is below 1)"
                 );
@@ -184,7 +188,23 @@ pub struct AutoMeasure {
     /// The render has fewer samples than [`AUTO_MIN_SPP`], so `auto` did
     /// not look further than the share.
     pub too_few_samples: bool,
+    /// Training stopped after this many iterations, the guide having not
+    /// lowered the pre-pass's variance ([`AUTO_PROBE_ITERATIONS`]); the
+    /// ratios are that probe's.
+    pub gave_up_after: Option<u32>,
 }
+
+/// After this many training iterations (`1 + 2 + 4 = 7` samples per pixel)
+/// `auto` runs the guided pre-pass once early, and when the guide has not
+/// lowered its variance at all, stops training and leaves guiding off: a
+/// guide that learned nothing from 7 samples a pixel did not learn more
+/// from 31 on the scenes measured (`--guiding auto`, 256 spp, the
+/// pre-pass's variance ratio after 1 to 5 iterations, seeds 1 and 2):
+/// - `benches/race/hard/glossy-env.xml`: 9.39, 1.27, 1.06, 1.04, 1.03 and
+///   9.91, 1.27, 1.04, 1.03, 1.02 (never guided);
+/// - `benches/race/hard/door-ajar.xml`: 1.08, 0.67, 0.53, 0.43, 0.34 and
+///   0.66, 0.32, 0.27, 0.21, 0.21 (guided).
+pub const AUTO_PROBE_ITERATIONS: u32 = 3;
 
 /// A guided path's time per ray over an unguided path's: the guide's
 /// lookups, its sampling and densities, and adjoint-driven roulette.
@@ -238,6 +258,7 @@ pub fn prepare(
                 variance_ratio: None,
                 cost_ratio: None,
                 too_few_samples: !request.progressive && request.spp < AUTO_MIN_SPP,
+                gave_up_after: None,
             };
             if plain.share < AUTO_INDIRECT_SHARE
                 || !(plain.variance > 0.0)
@@ -250,15 +271,42 @@ pub fn prepare(
                 };
             }
             let prepass_seconds = t.elapsed().as_secs_f64();
-            let trained = train_full(tracer);
+            // after AUTO_PROBE_ITERATIONS, a guide that has not lowered the
+            // pre-pass's variance at all ends the training
+            let mut gave_up = None;
+            let trained = train_until(
+                tracer,
+                scene,
+                camera,
+                request.resolution,
+                request.train_settings(),
+                pool,
+                |k, tracer| {
+                    if k + 1 != AUTO_PROBE_ITERATIONS {
+                        return false;
+                    }
+                    let probe = prepass(tracer, camera, &view, request.seed, pool);
+                    let variance = probe.variance / plain.variance;
+                    if variance < 1.0 {
+                        return false;
+                    }
+                    let cost = guided_cost(probe.rays as f64 / plain.rays.max(1) as f64);
+                    gave_up = Some((variance, cost));
+                    true
+                },
+            );
             let t = Instant::now();
-            let guided = prepass(tracer, camera, &view, request.seed, pool);
-            let variance = guided.variance / plain.variance;
-            let cost = guided_cost(guided.rays as f64 / plain.rays.max(1) as f64);
+            let (variance, cost) = gave_up.unwrap_or_else(|| {
+                let guided = prepass(tracer, camera, &view, request.seed, pool);
+                let variance = guided.variance / plain.variance;
+                let cost = guided_cost(guided.rays as f64 / plain.rays.max(1) as f64);
+                (variance, cost)
+            });
             measure.variance_ratio = Some(variance);
             measure.cost_ratio = Some(cost);
+            measure.gave_up_after = gave_up.map(|_| AUTO_PROBE_ITERATIONS);
             GuidingReport {
-                on: variance * cost < 1.0,
+                on: gave_up.is_none() && variance * cost < 1.0,
                 auto: Some(measure),
                 prepass_seconds: prepass_seconds + t.elapsed().as_secs_f64(),
                 ..trained
@@ -395,6 +443,25 @@ pub fn train(
     settings: TrainSettings,
     pool: &rayon::ThreadPool,
 ) -> GuidingReport {
+    train_until(tracer, scene, camera, resolution, settings, pool, |_, _| {
+        false
+    })
+}
+
+/// [`train`], stopping early after the first iteration `k` (from 0) for
+/// which `stop(k, tracer)` holds, the tracer then holding that iteration's
+/// guide. `stop` may trace with the tracer (a pre-pass); recording is
+/// turned on again after it.
+#[allow(clippy::too_many_arguments)]
+fn train_until(
+    tracer: &mut PathTracer<'_>,
+    scene: &Scene,
+    camera: &Camera,
+    resolution: [u32; 2],
+    settings: TrainSettings,
+    pool: &rayon::ThreadPool,
+    mut stop: impl FnMut(u32, &mut PathTracer<'_>) -> bool,
+) -> GuidingReport {
     let t = Instant::now();
     let bounds = scene.bounds();
     let mut builder = GuideBuilder::new(bounds.min, bounds.max);
@@ -405,6 +472,7 @@ pub fn train(
     let mut pixel_sums = vec![(0.0f64, 0u32); n_pixels];
     tracer.set_guide(None);
     tracer.set_recording(true);
+    let mut iterations = 0;
     for k in 0..settings.iterations {
         let spp = 1u32 << k;
         let seed = mix64(settings.seed ^ mix64(0x6e1d_e000 + k as u64));
@@ -449,6 +517,11 @@ pub fn train(
         };
         let guide = builder.finish_iteration(k).with_pixels(pixels);
         tracer.set_guide(Some(Arc::new(guide)));
+        iterations = k + 1;
+        if iterations < settings.iterations && stop(k, tracer) {
+            break;
+        }
+        tracer.set_recording(true);
     }
     tracer.set_recording(false);
     let (leaves, nodes) = tracer
@@ -459,8 +532,8 @@ pub fn train(
         on: true,
         auto: None,
         prepass_seconds: 0.0,
-        iterations: settings.iterations,
-        train_spp: settings.spp(),
+        iterations,
+        train_spp: (1u32 << iterations) - 1,
         train_seconds: t.elapsed().as_secs_f64(),
         train_rays: rays,
         leaves,

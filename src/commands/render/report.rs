@@ -139,6 +139,11 @@ pub struct GuidingSummary {
     /// training included (absent where the share alone decided).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cost_ratio: Option<f64>,
+    /// `auto` stopped training after this many iterations, the guide having
+    /// not lowered the pre-pass's variance (the ratios are that probe's;
+    /// absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gave_up_after: Option<u32>,
     /// The pre-pass's seconds.
     pub prepass_seconds: f64,
     /// Training iterations (1, 2, 4, ... spp).
@@ -167,6 +172,7 @@ impl GuidingSummary {
             indirect_share: g.auto.map(|m| m.indirect_share),
             variance_ratio: g.auto.and_then(|m| m.variance_ratio),
             cost_ratio: g.auto.and_then(|m| m.cost_ratio),
+            gave_up_after: g.auto.and_then(|m| m.gave_up_after),
             prepass_seconds: g.prepass_seconds,
             iterations: g.iterations,
             train_spp: g.train_spp,
