@@ -516,19 +516,28 @@ fn floor_scene(rho: f32, env: EnvironmentMap) -> Scene {
     scene
 }
 
-/// Hard case 23 with a map (constant 0.5 texels scaled by 2) over a floor
-/// of albedo 0.6, rendered with `direct`: every sample must be exactly 0.6.
-fn assert_uniform_map_furnace_is_exact(direct: DirectStrategy) {
-    let env = EnvironmentMap::new(map(16, 8, |_, _| Vec3::splat(0.5)), Vec3::splat(2.0)).unwrap();
-    let rho = 0.6;
-    let scene = floor_scene(rho, env);
+#[test]
+fn environment_map_furnace_bsdf_only_is_exact() {
+    // hard case 23 with a map: constant 0.5 texels scaled by 2
+    let scene = floor_scene(0.6, uniform_map());
+    assert_furnace_is_exact(&scene, 0.6, DirectStrategy::Bsdf);
+}
+
+/// A map of constant 0.5 texels scaled by 2: radiance 1 everywhere.
+fn uniform_map() -> EnvironmentMap {
+    EnvironmentMap::new(map(16, 8, |_, _| Vec3::splat(0.5)), Vec3::splat(2.0)).unwrap()
+}
+
+/// Every sample of `scene` (a floor of albedo `rho` under radiance 1),
+/// rendered with `direct`, is exactly `rho`.
+fn assert_furnace_is_exact(scene: &Scene, rho: f32, direct: DirectStrategy) {
     let settings = IntegratorSettings {
         direct,
         max_depth: 8,
         ..IntegratorSettings::default()
     };
     for backend in Backend::available() {
-        let out = render_with(&scene, backend, None, settings, [12, 12], 8, 2);
+        let out = render_with(scene, backend, None, settings, [12, 12], 8, 2);
         for v in out.film.to_rgb_f32() {
             assert!((v - rho).abs() < 1e-5, "{direct} {backend}: {v} vs {rho}");
         }
@@ -536,38 +545,23 @@ fn assert_uniform_map_furnace_is_exact(direct: DirectStrategy) {
 }
 
 #[test]
-fn environment_map_furnace_bsdf_only_is_exact() {
-    assert_uniform_map_furnace_is_exact(DirectStrategy::Bsdf);
-}
-
-#[test]
-fn a_diffuse_floor_under_a_uniform_map_samples_its_bsdf_alone_by_default() {
-    // The map's density peaks at 1 / (4 pi), the cosine lobe at 1 / pi: at
-    // the default MIS the bounce skips light sampling
+fn a_diffuse_floor_under_a_uniform_sky_samples_its_bsdf_alone_by_default() {
+    // Light sampling draws the whole sphere at 1 / (4 pi); the cosine lobe
+    // peaks at 1 / pi: at the default MIS the bounce skips light sampling
     // (LIGHT_SAMPLING_PEAK_RATIO), so every sample is exactly rho, as with
     // BSDF sampling alone; light samples would add noise.
     assert_eq!(IntegratorSettings::default().direct, DirectStrategy::Mis);
-    assert_uniform_map_furnace_is_exact(DirectStrategy::Mis);
+    let mut scene = floor_scene(0.6, uniform_map());
+    scene.environment_map = None;
+    scene.environment = Some(Vec3::ONE);
+    assert_furnace_is_exact(&scene, 0.6, DirectStrategy::Mis);
 }
 
 #[test]
-fn a_map_more_concentrated_than_the_lobe_is_still_light_sampled() {
-    // a spot 100 times the rest: the map's density peaks far above 1 / pi,
-    // so MIS runs, and the render is not the BSDF-only one
-    let f = |u: f32, v: f32| {
-        if (u - 0.3).abs() < 0.05 && (v - 0.3).abs() < 0.06 {
-            Vec3::splat(50.0)
-        } else {
-            Vec3::splat(0.5)
-        }
-    };
-    let env = EnvironmentMap::new(map(64, 32, f), Vec3::ONE).unwrap();
-    assert!(
-        env.peak_pdf() > 4.0 * std::f32::consts::FRAC_1_PI,
-        "{}",
-        env.peak_pdf()
-    );
-    let scene = floor_scene(0.6, env);
+fn a_map_is_light_sampled_even_where_it_is_uniform() {
+    // the same radiance as a map: MIS runs (maps are never skipped), so the
+    // render is not the BSDF-only one
+    let scene = floor_scene(0.6, uniform_map());
     let render = |direct| {
         let settings = IntegratorSettings {
             direct,

@@ -291,20 +291,18 @@ impl Lights {
             || !self.directionals.is_empty()
     }
 
-    /// The largest solid-angle density light sampling reaches, from any
-    /// point, when every light is at infinity (the uniform environment's
-    /// `1 / (4 pi)`, the map's [`EnvironmentMap::peak_pdf`]); `None` when
-    /// some light is not, as the density of a light at a finite distance
-    /// grows without bound as a point nears it.
+    /// The solid-angle density of light sampling when the only light is
+    /// the uniform environment (`1 / (4 pi)` everywhere); `None` for any
+    /// other set of lights. (An environment map's highest density,
+    /// `max L / int L dw`, was tried as a bound too; it let bounces on
+    /// rough metal skip light sampling where that raised the noise, see
+    /// `LIGHT_SAMPLING_PEAK_RATIO`.)
     pub fn peak_pdf(&self) -> Option<f32> {
-        if !self.area.is_empty() || self.has_unreachable() || !self.has_environment() {
-            return None;
-        }
-        let uniform = self
-            .environment
-            .map_or(0.0, |_| 0.25 * std::f32::consts::FRAC_1_PI);
-        let map = self.environment_map.as_ref().map_or(0.0, |m| m.peak_pdf());
-        Some(uniform.max(map))
+        let only_uniform = self.area.is_empty()
+            && !self.has_unreachable()
+            && self.environment_map.is_none()
+            && self.environment.is_some();
+        only_uniform.then_some(0.25 * std::f32::consts::FRAC_1_PI)
     }
 
     /// Whether an escaping ray sees any radiance.

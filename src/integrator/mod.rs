@@ -114,34 +114,35 @@ pub struct PathTracer<'a> {
     bsdf_alone_from: f32,
 }
 
-/// How high, against the highest density of light sampling, a BSDF's
-/// lobes must all peak for a bounce to skip light sampling (MIS then weighs
-/// the light its BSDF sample finds by 1): at 2, the light is nowhere more
-/// than half as concentrated as the lobe's peak, so there the light's
-/// power-heuristic weight is at most 1/5, and where it nears 1 (the lobe's
-/// tails) the BSDF is small. Both strategies are unbiased, so this only
-/// trades noise against time. A material whose maps perturb the shading
-/// normal always samples lights: there the geometric surface cuts the lobe
-/// (`tests/data/mitsuba/maps.xml`, a normal-mapped rough metal under a map
-/// peaking at 1.37 /sr: noise 0.0369 at ratio 2 and 0.0549 at ratio 1,
-/// against 0.0312 never skipping). Measured (2-core AMD EPYC, noise = RMSE
-/// of seeds 1 and 2 over sqrt 2, time = user CPU of one thread) against
-/// never skipping:
-/// - `benches/race/hard/glossy-env.xml`, 64 spp (rough aluminium walls,
-///   alpha 0.05, gold floor, 0.1, under `sky.exr`, which peaks at
-///   6.6 /sr): ratio 2 and 4 (the walls skip), noise 0.01177 in 0.83 s;
-///   ratio 1 (the floor too), 0.01190 in 0.71 s; never, 0.01211 in 1.05 s.
-/// - `scenes/sphere-1m.toml`, 16 spp (diffuse under a uniform sky, peak
-///   `1 / (4 pi)`): ratios 1 and 2, noise 0.01666 in 2.73 s; never, 0.02117
-///   in 3.87 s.
-/// - `scenes/materials.toml`: unchanged (its diffuse floor's peak `1 / pi`
-///   is below its sky's).
+/// How high, against the density of light sampling, a BSDF's lobes must
+/// all peak for a bounce to skip light sampling (MIS then weighs the light
+/// its BSDF sample finds by 1): at 2, the light's power-heuristic weight at
+/// the lobe's peak is at most 1/5, and where it nears 1 (the lobe's tails)
+/// the BSDF is small. Both strategies are unbiased, so this only trades
+/// noise against time. It applies where the uniform environment is the
+/// only light ([`Lights::peak_pdf`]), where light sampling draws the whole
+/// sphere and the lobe is the better strategy: `scenes/sphere-1m.toml` (a
+/// diffuse terrain, 16 spp; 2-core AMD EPYC, noise = RMSE of seeds 1 and 2
+/// over sqrt 2, time = user CPU of one thread): noise 0.02117 to 0.01666,
+/// 3.87 s to 2.73 s.
+///
+/// Tried and left out: bounding an environment map by its highest density
+/// (`max L / int L dw`). On `benches/race/hard/glossy-env.xml` (64 spp) the
+/// aluminium walls (alpha 0.05, peak 31.8 /sr, under a sky peaking at 6.6
+/// /sr) then skipped light sampling: noise 0.01211 to 0.01177, 1.05 s to
+/// 0.83 s. But on `tests/data/mitsuba/metals.xml` (rough spheres under a
+/// sky peaking at 1.37 /sr, 64 spp) with the copper's alpha set to 0.17,
+/// 0.14, 0.1 and 0.07, skipping raised the noise from 0.0211, 0.0194,
+/// 0.0218, 0.0221 to 0.0269, 0.0291, 0.0243, 0.0236, even at ratios near
+/// 12; and on `tests/data/mitsuba/maps.xml`, a normal-mapped rough metal,
+/// from 0.0312 to 0.0369. A lobe's peak does not say how much of it a
+/// sphere's grazing views or a perturbed normal send below the surface.
 pub const LIGHT_SAMPLING_PEAK_RATIO: f32 = 2.0;
 
 /// The BSDF peak density from which a bounce samples the BSDF alone:
-/// [`LIGHT_SAMPLING_PEAK_RATIO`] times the lights' highest density, when
-/// it is bounded (every light at infinity, [`Lights::peak_pdf`]) and
-/// direct light is combined by MIS; otherwise infinite (never). Either way
+/// [`LIGHT_SAMPLING_PEAK_RATIO`] times the light's density, when the
+/// uniform environment is the only light ([`Lights::peak_pdf`]) and direct
+/// light is combined by MIS; otherwise infinite (never). Either way
 /// the estimator is unbiased: a bounce's strategies are chosen by its BSDF
 /// alone, and the BSDF sample's weight says which ran.
 fn bsdf_alone_from(lights: &Lights, direct: crate::settings::DirectStrategy) -> f32 {
@@ -215,7 +216,7 @@ const MIN_SHADING_COS: f32 = 1e-2;
 /// ([`LIGHT_SAMPLING_PEAK_RATIO`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct BsdfAlone {
-    /// The lights' highest density, when every light is at infinity.
+    /// The lights' density, when the uniform environment is the only light.
     pub lights_peak_pdf: Option<f32>,
     /// The BSDF peak density from which a bounce skips light sampling;
     /// `None`: never.
@@ -252,10 +253,10 @@ impl BsdfAlone {
         let peak = self.lights_peak_pdf.unwrap_or(0.0);
         match self.from {
             Some(f) if self.materials.is_empty() => format!(
-                "light sampling: at every non-delta bounce (no material's lobes all peak at or above {f:.3} /sr, {LIGHT_SAMPLING_PEAK_RATIO} x the lights' highest density)"
+                "light sampling: at every non-delta bounce (no material's lobes all peak at or above {f:.3} /sr, {LIGHT_SAMPLING_PEAK_RATIO} x the uniform sky's density)"
             ),
             Some(f) => format!(
-                "light sampling: skipped, BSDF sampling alone, where every lobe peaks at or above {f:.3} /sr ({LIGHT_SAMPLING_PEAK_RATIO} x the lights' highest density, {peak:.3} /sr): {}",
+                "light sampling: skipped, BSDF sampling alone, where every lobe peaks at or above {f:.3} /sr ({LIGHT_SAMPLING_PEAK_RATIO} x the uniform sky's density, {peak:.3} /sr): {}",
                 self.materials
                     .iter()
                     .map(|m| format!("`{m}`"))
@@ -266,7 +267,7 @@ impl BsdfAlone {
                 "light sampling: at every non-delta bounce (direct light not combined by MIS)"
                     .to_string()
             }
-            None => "light sampling: at every non-delta bounce (some light is not at infinity)"
+            None => "light sampling: at every non-delta bounce (the uniform environment is not the only light)"
                 .to_string(),
         }
     }

@@ -120,8 +120,6 @@ pub struct EnvironmentMap {
     distribution: Density,
     /// Integral of the luminance of the scaled map over the sphere.
     luminance_integral: f64,
-    /// [`EnvironmentMap::peak_pdf`].
-    peak_pdf: f32,
 }
 
 /// The map coordinates `(u, v)` in `[0, 1) x [0, 1]` of the unit direction
@@ -364,18 +362,11 @@ impl EnvironmentMap {
             let w0 = (t0.cos() - t1.cos()) - w1;
             integral += w0 * row_mean(i) + w1 * row_mean(i + 1);
         }
-        let luminance_integral = 2.0 * std::f64::consts::PI * integral;
-        let brightest = lum.iter().fold(0.0f64, |a, &b| a.max(b));
         Ok(EnvironmentMap {
             map,
             radiance,
             distribution,
-            luminance_integral,
-            peak_pdf: if luminance_integral > 0.0 {
-                (brightest / luminance_integral) as f32
-            } else {
-                0.0
-            },
+            luminance_integral: 2.0 * std::f64::consts::PI * integral,
         })
     }
 
@@ -485,15 +476,6 @@ impl EnvironmentMap {
     /// per patch; see [`BILINEAR_ABOVE`]).
     pub fn samples_bilinear_density(&self) -> bool {
         matches!(self.distribution, Density::Bilinear(_))
-    }
-
-    /// The largest solid-angle density of a sampler proportional to the
-    /// map's luminance, `max L / int L dw` (`1 / (4 pi)` for a constant
-    /// map): how concentrated light sampling is at the brightest texel.
-    /// [`EnvironmentMap::sample`]'s own density follows it but for the
-    /// `sin theta` of the rows near the poles.
-    pub fn peak_pdf(&self) -> f32 {
-        self.peak_pdf
     }
 
     /// The integral over the sphere of the luminance of the (scaled) map,
