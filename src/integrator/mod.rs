@@ -108,10 +108,10 @@ pub struct PathTracer<'a> {
     guide: Option<std::sync::Arc<crate::guiding::Guide>>,
     /// Paths' bounces are kept for [`take_recorded`] (a guide's training).
     record: bool,
-    /// A non-delta bounce whose BSDF's lobes peak at least this high
-    /// this samples the BSDF alone, no light ([`bsdf_alone_from`],
-    /// [`crate::bsdf::Bxdf::lobe_peak_pdf`]).
-    bsdf_alone_from: f32,
+    /// A non-delta bounce whose BSDF's lobes all peak at least this high
+    /// samples the BSDF alone, no light ([`bsdf_alone_from`],
+    /// [`crate::bsdf::Bxdf::lobe_peak_pdf`]); `None`: none does.
+    bsdf_alone_from: Option<f32>,
 }
 
 /// How high, against the density of light sampling, a BSDF's lobes must
@@ -142,16 +142,23 @@ pub const LIGHT_SAMPLING_PEAK_RATIO: f32 = 2.0;
 /// The BSDF peak density from which a bounce samples the BSDF alone:
 /// [`LIGHT_SAMPLING_PEAK_RATIO`] times the light's density, when the
 /// uniform environment is the only light ([`Lights::peak_pdf`]) and direct
-/// light is combined by MIS; otherwise infinite (never). Either way
-/// the estimator is unbiased: a bounce's strategies are chosen by its BSDF
+/// light is combined by MIS; otherwise `None` (never). Either way the
+/// estimator is unbiased: a bounce's strategies are chosen by its BSDF
 /// alone, and the BSDF sample's weight says which ran.
-fn bsdf_alone_from(lights: &Lights, direct: crate::settings::DirectStrategy) -> f32 {
-    match lights.peak_pdf() {
-        Some(p) if direct == crate::settings::DirectStrategy::Mis && p > 0.0 => {
-            LIGHT_SAMPLING_PEAK_RATIO * p
-        }
-        _ => f32::INFINITY,
-    }
+fn bsdf_alone_from(lights: &Lights, direct: crate::settings::DirectStrategy) -> Option<f32> {
+    lights
+        .peak_pdf()
+        .filter(|&p| direct == crate::settings::DirectStrategy::Mis && p > 0.0)
+        .map(|p| LIGHT_SAMPLING_PEAK_RATIO * p)
+}
+
+/// Whether a bounce on `bsdf` samples it alone, no light: its lobes all
+/// peak at `from` ([`bsdf_alone_from`]) or higher, and its material's maps
+/// do not perturb the normal (asked only then). Without a threshold, as in
+/// most scenes, nothing is computed.
+#[inline]
+fn bsdf_alone(bsdf: &impl Bxdf, from: Option<f32>, perturbs_normal: impl FnOnce() -> bool) -> bool {
+    from.is_some_and(|f| bsdf.lobe_peak_pdf() >= f && !perturbs_normal())
 }
 
 /// The most delta surfaces [`PathTracer::auxiliary`] follows.
@@ -230,17 +237,15 @@ impl BsdfAlone {
     /// sampling.
     pub fn of(scene: &Scene, settings: &IntegratorSettings) -> Self {
         let lights = Lights::with_sampler(scene, settings.light_sampler);
-        let from = Some(bsdf_alone_from(&lights, settings.direct)).filter(|f| f.is_finite());
-        let materials = from.map_or(Vec::new(), |f| {
-            scene
-                .materials
-                .iter()
-                .filter(|m| {
-                    !m.bsdf.is_delta() && !m.maps.perturbs_normal() && m.bsdf.lobe_peak_pdf() >= f
-                })
-                .map(|m| m.name.clone())
-                .collect()
-        });
+        let from = bsdf_alone_from(&lights, settings.direct);
+        let materials = scene
+            .materials
+            .iter()
+            .filter(|m| {
+                !m.bsdf.is_delta() && bsdf_alone(&m.bsdf, from, || m.maps.perturbs_normal())
+            })
+            .map(|m| m.name.clone())
+            .collect();
         BsdfAlone {
             lights_peak_pdf: lights.peak_pdf(),
             from,

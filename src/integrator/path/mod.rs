@@ -546,8 +546,9 @@ impl<'a> PathTracer<'a> {
             shadowing,
             guide,
             l_in: Vec3::ZERO,
-            sample_lights: !(bsdf.lobe_peak_pdf() >= self.bsdf_alone_from)
-                || (SHAPES && self.normal_maps && self.scene.materials[m].maps.perturbs_normal()),
+            sample_lights: !super::bsdf_alone(&bsdf, self.bsdf_alone_from, || {
+                SHAPES && self.normal_maps && self.scene.materials[m].maps.perturbs_normal()
+            }),
         }
     }
 
