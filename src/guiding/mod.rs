@@ -44,10 +44,12 @@ mod bytes;
 pub mod dtree;
 pub mod fraction;
 mod persist;
+mod spatial;
 
 use crate::math::Vec3;
 use dtree::{BuildTree, SampleTree};
 use fraction::{Fraction, FractionSample};
+use spatial::{MAX_SPATIAL_DEPTH, NORMAL_CLASSES, SpatialNode, SpatialTree};
 use std::fmt;
 use std::str::FromStr;
 
@@ -96,95 +98,6 @@ pub const BSDF_FRACTION: f32 = 0.5;
 /// Records above which a spatial leaf splits after the first iteration
 /// (Müller et al. 2017's `c`).
 pub const SPLIT_RECORDS: f64 = 12_000.0;
-
-/// The deepest the spatial tree grows.
-const MAX_SPATIAL_DEPTH: u32 = 48;
-
-/// A node of the spatial tree: a leaf (its index into the leaves) or a
-/// split at the middle of its box along `axis`, with children at `child`
-/// and `child + 1` (lower half first).
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum SpatialNode {
-    Leaf(u32),
-    Split { axis: u8, child: u32 },
-}
-
-/// Surfaces are told apart by their normal's class: its largest axis and
-/// that axis's sign (6 classes), each with a spatial tree of its own. The
-/// two faces of a thin wall, or of a door, then learn apart: what arrives
-/// at one face's hemisphere is below the other's horizon, where a guided
-/// sample would be wasted.
-const NORMAL_CLASSES: usize = 6;
-
-/// The class of normal `n` ([`NORMAL_CLASSES`]).
-#[inline]
-fn normal_class(n: Vec3) -> usize {
-    let a = n.abs();
-    let axis = if a.x >= a.y && a.x >= a.z {
-        0
-    } else if a.y >= a.z {
-        1
-    } else {
-        2
-    };
-    2 * axis + usize::from(n[axis] < 0.0)
-}
-
-/// The spatial trees over a cube around the scene, one per normal class:
-/// nodes `0..NORMAL_CLASSES` are the roots.
-#[derive(Debug, Clone, PartialEq)]
-struct SpatialTree {
-    origin: Vec3,
-    /// `1 / side` of the cube.
-    inv_size: f32,
-    nodes: Vec<SpatialNode>,
-}
-
-impl SpatialTree {
-    fn new(min: Vec3, max: Vec3) -> Self {
-        let (min, max) = if min.x <= max.x {
-            (min, max)
-        } else {
-            (Vec3::ZERO, Vec3::ONE)
-        };
-        let side = (max - min).max_element();
-        // a little larger than the scene, so no surface point is on the edge
-        let side = if side > 0.0 && side.is_finite() {
-            side * 1.01
-        } else {
-            1.0
-        };
-        let centre = 0.5 * (min + max);
-        SpatialTree {
-            origin: centre - Vec3::splat(0.5 * side),
-            inv_size: 1.0 / side,
-            nodes: (0..NORMAL_CLASSES as u32).map(SpatialNode::Leaf).collect(),
-        }
-    }
-
-    /// The leaf holding point `p` on a surface of normal `n` (points
-    /// outside the cube go to the nearest leaf).
-    #[inline]
-    fn leaf(&self, p: Vec3, n: Vec3) -> usize {
-        let mut q = ((p - self.origin) * self.inv_size).clamp(Vec3::ZERO, Vec3::ONE);
-        let mut node = normal_class(n);
-        loop {
-            match self.nodes[node] {
-                SpatialNode::Leaf(l) => return l as usize,
-                SpatialNode::Split { axis, child } => {
-                    let a = axis as usize;
-                    if q[a] < 0.5 {
-                        q[a] *= 2.0;
-                        node = child as usize;
-                    } else {
-                        q[a] = q[a] * 2.0 - 1.0;
-                        node = child as usize + 1;
-                    }
-                }
-            }
-        }
-    }
-}
 
 /// What one spatial leaf holds while training.
 #[derive(Debug, Clone, PartialEq)]
@@ -457,7 +370,7 @@ impl GuideBuilder {
         // (node, depth)
         let mut stack: Vec<(usize, u32)> = (0..NORMAL_CLASSES).map(|c| (c, 0)).collect();
         while let Some((node, depth)) = stack.pop() {
-            match self.tree.nodes[node] {
+            match self.tree.nodes()[node] {
                 SpatialNode::Split { child, .. } => {
                     stack.push((child as usize, depth + 1));
                     stack.push((child as usize + 1, depth + 1));
@@ -471,18 +384,13 @@ impl GuideBuilder {
                     let twin = self.leaves[l].clone();
                     let l2 = self.leaves.len();
                     self.leaves.push(twin);
-                    let child = self.tree.nodes.len();
-                    self.tree.nodes.push(SpatialNode::Leaf(l as u32));
-                    self.tree.nodes.push(SpatialNode::Leaf(l2 as u32));
-                    self.tree.nodes[node] = SpatialNode::Split {
-                        axis: (depth % 3) as u8,
-                        child: child as u32,
-                    };
+                    let child = self.tree.halve(node, depth, l as u32, l2 as u32);
                     stack.push((child, depth + 1));
                     stack.push((child + 1, depth + 1));
                 }
             }
         }
+        self.tree.tabulate();
     }
 }
 
@@ -531,7 +439,7 @@ mod tests {
         assert!(t.pdf(Vec3::Z) > t.pdf(-Vec3::Z));
         // the other side of the surface learned nothing
         assert!(g.at(Vec3::new(0.1, 0.5, 0.5), -Vec3::Y).is_none());
-        assert_eq!(normal_class(Vec3::new(0.2, -0.9, 0.3)), 3);
+        assert_eq!(spatial::normal_class(Vec3::new(0.2, -0.9, 0.3)), 3);
     }
 
     #[test]

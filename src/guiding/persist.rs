@@ -51,8 +51,8 @@ impl Guide {
             w.f32(v);
         }
         w.f32(t.inv_size);
-        w.len(t.nodes.len());
-        for n in &t.nodes {
+        w.len(t.nodes().len());
+        for n in t.nodes() {
             match *n {
                 SpatialNode::Leaf(l) => {
                     w.u8(0);
@@ -182,11 +182,7 @@ impl Guide {
             return Err(format!("{} bytes after the guide", r.left()));
         }
         Ok(Guide {
-            tree: SpatialTree {
-                origin,
-                inv_size,
-                nodes,
-            },
+            tree: SpatialTree::from_parts(origin, inv_size, nodes)?,
             leaves,
             radiance,
             pixels,
