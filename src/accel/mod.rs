@@ -21,6 +21,7 @@ pub mod instance;
 pub mod naive;
 pub mod sphere;
 pub mod triangle;
+pub mod wide;
 
 // The crate's one `unsafe` island: the FFI to Embree (lib.rs denies
 // `unsafe` everywhere else).

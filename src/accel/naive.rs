@@ -1,22 +1,29 @@
 //! The brute-force backend: every ray is tested against every triangle with
-//! the watertight routine of [`super::triangle`], four at a time in index
-//! order, exactly as the BVH runs it in its leaves. Quadratic and slow; it is
-//! the oracle the other backends are checked against.
+//! the watertight routine of [`super::triangle`], sixteen at a time in index
+//! order ([`super::wide`]), each lane answering bit for bit as the BVH's
+//! four-wide leaf test. Quadratic: the oracle the other backends are
+//! checked against, and on scenes of a few dozen triangles faster than
+//! any tree.
 
 use super::instance::{InstanceSet, PrototypeQuery};
 use super::sphere::SphereSet;
-use super::triangle::{Tri4, WatertightRay};
+use super::triangle::WatertightRay;
+use super::wide::{LANES, Tri16};
 use super::{Accelerator, AlphaTest, Hit, HitFilter, Masks, Opaque, TriangleSoup};
 use crate::math::{Ray, Vec3};
+use crate::simd::{Dispatch, Level};
 
-/// Brute force over a copy of the triangles, in blocks of four, then over
+/// Brute force over a copy of the triangles, in blocks of sixteen, then over
 /// the spheres (which a small tree holds: it answers exactly as a scan, see
 /// [`SphereSet`]'s tests), then over every placement of every instanced
 /// prototype, in order, each prototype brute-forced in object space.
 pub struct Naive {
-    blocks: Vec<Tri4>,
-    /// Triangles in the last block (1 to 4).
+    blocks: Vec<Tri16>,
+    /// Triangles in the last block (1 to 16).
     last: usize,
+    /// The instruction set the tests run with ([`crate::simd`]; the same
+    /// answers, bit for bit, on every level).
+    simd: Dispatch,
     spheres: SphereSet,
     instances: InstanceSet<Naive>,
 }
@@ -24,23 +31,29 @@ pub struct Naive {
 impl Naive {
     /// Copy the triangles of `soup`.
     pub fn new(soup: TriangleSoup<'_>) -> Self {
+        Self::with_simd(soup, crate::simd::active())
+    }
+
+    /// [`Naive::new`], testing with the instruction set of `level`.
+    pub fn with_simd(soup: TriangleSoup<'_>, level: Level) -> Self {
         let tris: Vec<(u32, [Vec3; 3])> = soup
             .indices
             .iter()
             .enumerate()
             .map(|(i, t)| (i as u32, t.map(|k| soup.positions[k as usize])))
             .collect();
-        let blocks = tris.chunks(4).map(Tri4::new).collect();
-        let last = tris.len().saturating_sub(1) % 4 + 1;
+        let blocks = tris.chunks(LANES).map(Tri16::new).collect();
+        let last = tris.len().saturating_sub(1) % LANES + 1;
         let instances = InstanceSet::new(soup.instances, false, |p| {
-            Ok::<_, std::convert::Infallible>(Naive::new(TriangleSoup::triangles(
-                &p.positions,
-                &p.indices,
-            )))
+            Ok::<_, std::convert::Infallible>(Naive::with_simd(
+                TriangleSoup::triangles(&p.positions, &p.indices),
+                level,
+            ))
         });
         Naive {
             blocks,
             last,
+            simd: level.dispatcher(),
             spheres: SphereSet::new(soup.spheres, soup.indices.len() as u32),
             instances: match instances {
                 Ok(set) => set,
@@ -50,11 +63,12 @@ impl Naive {
     }
 
     /// Each block with its lane mask.
-    fn blocks(&self) -> impl Iterator<Item = (&Tri4, u32)> {
+    #[inline(always)]
+    fn blocks(&self) -> impl Iterator<Item = (&Tri16, u32)> {
         let n = self.blocks.len();
         self.blocks.iter().enumerate().map(move |(i, b)| {
-            let count = if i + 1 == n { self.last } else { 4 };
-            (b, (1 << count) - 1)
+            let count = if i + 1 == n { self.last } else { LANES };
+            (b, (1u32 << count).wrapping_sub(1))
         })
     }
 }
@@ -65,7 +79,7 @@ impl Accelerator for Naive {
     }
 
     fn memory_bytes(&self) -> usize {
-        self.blocks.capacity() * std::mem::size_of::<Tri4>()
+        self.blocks.capacity() * std::mem::size_of::<Tri16>()
             + self.spheres.memory_bytes()
             + self.instances.memory_bytes()
     }
@@ -120,24 +134,67 @@ impl PrototypeQuery for Naive {
         if !ray.is_finite() {
             return None;
         }
-        let wr = WatertightRay::new(ray);
-        let mut best: Option<Hit> = None;
-        let mut t_max = ray.t_max;
-        for (block, lanes) in self.blocks() {
-            wr.intersect4(block, lanes, t_max)
-                .fold_closest(block, &mut best, &mut t_max, filter);
-        }
-        best
+        self.simd.run(Closest {
+            naive: self,
+            ray,
+            filter,
+        })
     }
 
     fn any_triangle<F: HitFilter>(&self, ray: &Ray, filter: &F) -> bool {
         if !ray.is_finite() {
             return false;
         }
-        let wr = WatertightRay::new(ray);
-        self.blocks().any(|(block, lanes)| {
-            wr.intersect4(block, lanes, ray.t_max)
-                .any_kept(block, filter)
+        self.simd.run(Any {
+            naive: self,
+            ray,
+            filter,
+        })
+    }
+}
+
+/// A closest-hit scan, run by [`Dispatch::run`] so that the inlined
+/// sixteen-wide test compiles for the chosen instruction set.
+struct Closest<'q, F> {
+    naive: &'q Naive,
+    ray: &'q Ray,
+    filter: &'q F,
+}
+
+impl<F: HitFilter> pulp::WithSimd for Closest<'_, F> {
+    type Output = Option<Hit>;
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) -> Option<Hit> {
+        let wr = WatertightRay::new(self.ray);
+        let mut best: Option<Hit> = None;
+        let mut t_max = self.ray.t_max;
+        for (block, lanes) in self.naive.blocks() {
+            wr.intersect16(block, lanes, t_max).fold_closest(
+                block,
+                &mut best,
+                &mut t_max,
+                self.filter,
+            );
+        }
+        best
+    }
+}
+
+/// An any-hit scan, as [`Closest`].
+struct Any<'q, F> {
+    naive: &'q Naive,
+    ray: &'q Ray,
+    filter: &'q F,
+}
+
+impl<F: HitFilter> pulp::WithSimd for Any<'_, F> {
+    type Output = bool;
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) -> bool {
+        let wr = WatertightRay::new(self.ray);
+        self.naive.blocks().any(|(block, lanes)| {
+            wr.intersect16(block, lanes, self.ray.t_max)
+                .any_kept(block, self.filter)
         })
     }
 }

@@ -49,15 +49,15 @@ pub fn distance_error_bound(p: [Vec3; 3], ray: &Ray) -> f32 {
 /// A ray prepared for the watertight test: the permutation and shear.
 #[derive(Debug, Clone, Copy)]
 pub struct WatertightRay {
-    o: Vec3,
+    pub(super) o: Vec3,
     /// The direction (for the exact side test of hits near the origin).
     d: Vec3,
-    kx: usize,
-    ky: usize,
-    kz: usize,
-    sx: f32,
-    sy: f32,
-    sz: f32,
+    pub(super) kx: usize,
+    pub(super) ky: usize,
+    pub(super) kz: usize,
+    pub(super) sx: f32,
+    pub(super) sy: f32,
+    pub(super) sz: f32,
     t_max: f32,
 }
 
@@ -121,13 +121,14 @@ impl WatertightRay {
     /// exact `f32` inputs, its numerator's sign beyond its rounding error.
     #[cold]
     fn plane_ahead(&self, block: &Tri4, l: usize) -> bool {
-        let c = |k: usize| {
-            glam::DVec3::new(
-                f64::from(block.p[k][0][l]),
-                f64::from(block.p[k][1][l]),
-                f64::from(block.p[k][2][l]),
-            )
-        };
+        self.plane_ahead_of(block.p.map(|c| c.map(|axis| axis[l])))
+    }
+
+    /// [`WatertightRay::plane_ahead`] for the triangle of corners `p`
+    /// (`p[corner][axis]`).
+    #[cold]
+    pub(super) fn plane_ahead_of(&self, p: [[f32; 3]; 3]) -> bool {
+        let c = |k: usize| glam::DVec3::from(p[k].map(f64::from));
         let (p0, p1, p2) = (c(0), c(1), c(2));
         // differences of f32 values are exact in f64 unless their
         // exponents are far apart; the cross product rounds twice per term
