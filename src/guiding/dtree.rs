@@ -110,6 +110,59 @@ impl BuildTree {
         }
     }
 
+    /// Add `value` spread over a box around point `q` the size of the leaf
+    /// cell holding `q` (Müller 2019's directional box filter), in
+    /// proportion to the box's overlap with each cell: the box wraps around
+    /// in `y` (the azimuth) and is clipped to the square in `x`, its value
+    /// kept whole.
+    pub fn add_filtered(&mut self, q: Vec2, value: f64) {
+        let mut size = 1.0f64;
+        let mut node = 0usize;
+        let mut inner = q;
+        loop {
+            let (i, next) = quadrant(inner);
+            size *= 0.5;
+            match self.nodes[node].child[i] {
+                0 => break,
+                c => {
+                    node = c as usize;
+                    inner = next;
+                }
+            }
+        }
+        let (x, y) = (q.x as f64, q.y as f64);
+        let x0 = (x - 0.5 * size).max(0.0);
+        let x1 = (x + 0.5 * size).min(1.0);
+        let density = value / ((x1 - x0) * size);
+        let (y0, y1) = (y - 0.5 * size, y + 0.5 * size);
+        // the box's parts within the square, the azimuth wrapped
+        let parts = [(y0.max(0.0), y1.min(1.0)), (y0 + 1.0, 1.0), (0.0, y1 - 1.0)];
+        for (lo, hi) in parts {
+            if hi > lo {
+                self.splat(0, [0.0, 0.0], 1.0, [x0, x1, lo, hi], density);
+            }
+        }
+    }
+
+    /// Add `density` times the overlap of box `b` (`[x0, x1, y0, y1]`) with
+    /// each quadrant of node `node`, whose square has corner `origin` and
+    /// side `side`, recursively.
+    fn splat(&mut self, node: usize, origin: [f64; 2], side: f64, b: [f64; 4], density: f64) {
+        let half = 0.5 * side;
+        for i in 0..4 {
+            let qx = origin[0] + half * (i & 1) as f64;
+            let qy = origin[1] + half * (i >> 1) as f64;
+            let w = (b[1].min(qx + half) - b[0].max(qx)).max(0.0);
+            let h = (b[3].min(qy + half) - b[2].max(qy)).max(0.0);
+            if w * h > 0.0 {
+                self.nodes[node].sum[i] += density * w * h;
+                if let c @ 1.. = self.nodes[node].child[i] {
+                    self.splat(c as usize, [qx, qy], half, b, density);
+                }
+            }
+        }
+    }
+
     /// The energy of all records added.
     pub fn total(&self) -> f64 {
         self.nodes[0].sum.iter().sum()
@@ -425,6 +478,44 @@ mod tests {
         // a band of the square's x is a band of cos theta: equal area
         let band = |x0: f32, x1: f32| (x1 - x0) * 4.0 * PI;
         assert!((band(0.0, 0.5) - 2.0 * PI).abs() < 1e-6);
+    }
+
+    /// The box filter keeps a record's value whole, spreads it over the
+    /// cells its leaf-sized box overlaps in proportion, wraps it around the
+    /// azimuth's seam and clips it at the poles' edges.
+    #[test]
+    fn the_box_filter_spreads_a_record_over_the_cells_its_box_overlaps() {
+        // one level of children under every quadrant: leaf cells of 1/4
+        let mut tree = BuildTree::default();
+        for i in 0..4 {
+            tree.nodes[0].child[i] = tree.nodes.len() as u32;
+            tree.nodes.push(EMPTY);
+        }
+        let sums = |t: &BuildTree| t.nodes.iter().map(|n| n.sum).collect::<Vec<_>>();
+        // at a cell's centre the box is the cell: as `add`
+        let (mut a, mut b) = (tree.clone(), tree.clone());
+        a.add_filtered(Vec2::new(0.125, 0.375), 2.0);
+        b.add(Vec2::new(0.125, 0.375), 2.0);
+        assert_eq!(sums(&a), sums(&b));
+        // on the corner of four cells: a quarter in each, across the root's
+        // quadrants (0.5, 0.5 is the root's centre)
+        let mut c = tree.clone();
+        c.add_filtered(Vec2::new(0.5, 0.5), 4.0);
+        assert_eq!(c.nodes[0].sum, [1.0; 4]);
+        assert_eq!(c.nodes[1].sum, [0.0, 0.0, 0.0, 1.0]);
+        assert_eq!(c.nodes[4].sum, [1.0, 0.0, 0.0, 0.0]);
+        // at the seam y = 0: half wraps to y just below 1
+        let mut d = tree.clone();
+        d.add_filtered(Vec2::new(0.125, 0.0), 1.0);
+        assert!((d.total() - 1.0).abs() < 1e-12);
+        assert_eq!(d.nodes[0].sum, [0.5, 0.0, 0.5, 0.0]);
+        assert_eq!(d.nodes[1].sum, [0.5, 0.0, 0.0, 0.0]);
+        assert_eq!(d.nodes[3].sum, [0.0, 0.0, 0.5, 0.0]);
+        // at the edge x = 0: clipped, the value kept whole in the part inside
+        let mut e = tree;
+        e.add_filtered(Vec2::new(0.0, 0.125), 1.0);
+        assert_eq!(e.nodes[0].sum, [1.0, 0.0, 0.0, 0.0]);
+        assert_eq!(e.nodes[1].sum, [1.0, 0.0, 0.0, 0.0]);
     }
 
     /// A tree built from energy concentrated around one direction: its

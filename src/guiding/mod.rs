@@ -12,7 +12,10 @@
 //! it was sampled with, and leaves the next guide. A spatial leaf that
 //! received more than `c sqrt(2^k)` records in iteration `k` is halved
 //! (Müller et al.'s `c = 12000`, [`SPLIT_RECORDS`]); each quadtree is
-//! refined by [`dtree::BuildTree::refined`]. Surfaces are first told apart
+//! refined by [`dtree::BuildTree::refined`]; a record is spread over the
+//! quadtree cells that a box of its cell's size overlaps (Müller 2019's
+//! directional filter, [`dtree::BuildTree::add_filtered`]). Surfaces are
+//! first told apart
 //! by their normal's class ([`NORMAL_CLASSES`]), a choice of ours.
 //!
 //! Why the SD-tree rather than Open PGL's parallax-aware mixtures: it is
@@ -316,7 +319,8 @@ impl GuideBuilder {
                 leaf.radiance_count += 1;
             }
             if r.value > 0.0 && r.value.is_finite() {
-                leaf.build.add(dtree::dir_to_square(r.dir), r.value as f64);
+                leaf.build
+                    .add_filtered(dtree::dir_to_square(r.dir), r.value as f64);
             }
             if let Some(f) = &r.fraction {
                 leaf.fraction.add(f);
