@@ -352,18 +352,7 @@ impl Hits4 {
     /// Whether some hit of `block` counts under `filter`.
     #[inline]
     pub fn any_kept<F: HitFilter>(&self, block: &Tri4, filter: &F) -> bool {
-        if F::OPAQUE {
-            return self.mask != 0;
-        }
-        let mut m = self.mask;
-        while m != 0 {
-            let l = m.trailing_zeros() as usize;
-            m &= m - 1;
-            if filter.keep(block.ids[l], self.u[l], self.v[l]) {
-                return true;
-            }
-        }
-        false
+        self.lanes(block).any_kept(filter)
     }
 
     /// Fold these hits of `block` into the closest hit so far, as if its
@@ -383,11 +372,45 @@ impl Hits4 {
         t_max: &mut f32,
         filter: &F,
     ) {
+        self.lanes(block).fold_closest(best, t_max, filter);
+    }
+
+    /// These hits of `block`, lane by lane.
+    #[inline(always)]
+    fn lanes<'a>(&'a self, block: &'a Tri4) -> Lanes<'a> {
+        Lanes {
+            mask: self.mask,
+            ids: &block.ids,
+            t: &self.t,
+            u: &self.u,
+            v: &self.v,
+        }
+    }
+}
+
+/// The hits of a block of any width, lane by lane: what
+/// [`Hits4::fold_closest`] and [`Hits4::any_kept`] (and their sixteen-wide
+/// twins, [`super::wide::Hits16`]) fold.
+pub(super) struct Lanes<'a> {
+    /// Bit `l` set: lane `l` hit.
+    pub mask: u32,
+    /// Per lane: the triangle's original index, the hit's distance and
+    /// barycentrics.
+    pub ids: &'a [u32],
+    pub t: &'a [f32],
+    pub u: &'a [f32],
+    pub v: &'a [f32],
+}
+
+impl Lanes<'_> {
+    /// As [`Hits4::fold_closest`].
+    #[inline(always)]
+    pub fn fold_closest<F: HitFilter>(&self, best: &mut Option<Hit>, t_max: &mut f32, filter: &F) {
         let mut m = self.mask;
         while m != 0 {
             let l = m.trailing_zeros() as usize;
             m &= m - 1;
-            let (t, id) = (self.t[l], block.ids[l]);
+            let (t, id) = (self.t[l], self.ids[l]);
             if (t < *t_max || (t == *t_max && best.is_none_or(|b| id < b.prim)))
                 && (F::OPAQUE || filter.keep(id, self.u[l], self.v[l]))
             {
@@ -400,6 +423,23 @@ impl Hits4 {
                 });
             }
         }
+    }
+
+    /// As [`Hits4::any_kept`].
+    #[inline(always)]
+    pub fn any_kept<F: HitFilter>(&self, filter: &F) -> bool {
+        if F::OPAQUE {
+            return self.mask != 0;
+        }
+        let mut m = self.mask;
+        while m != 0 {
+            let l = m.trailing_zeros() as usize;
+            m &= m - 1;
+            if filter.keep(self.ids[l], self.u[l], self.v[l]) {
+                return true;
+            }
+        }
+        false
     }
 }
 

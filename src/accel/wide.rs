@@ -9,14 +9,14 @@
 //! follow SSE's `maxps`/`minps`: the second operand unless the first is
 //! greater, or less).
 
-use super::triangle::WatertightRay;
+use super::triangle::{Lanes, WatertightRay};
 use super::{Hit, HitFilter};
 use crate::math::{Vec3, gamma};
 
 /// Lanes of a [`Tri16`].
 pub const LANES: usize = 16;
 
-type Lanes = [f32; LANES];
+type Wide = [f32; LANES];
 
 /// Sixteen triangles coordinate by coordinate (`p[corner][axis][lane]`),
 /// with their original indices. Unused lanes repeat lane 0 and are masked
@@ -25,7 +25,7 @@ type Lanes = [f32; LANES];
 #[repr(C, align(64))]
 pub struct Tri16 {
     /// Corner coordinates: `p[corner][axis][lane]`.
-    pub p: [[Lanes; 3]; 3],
+    pub p: [[Wide; 3]; 3],
     /// Original triangle index of each lane.
     pub ids: [u32; LANES],
 }
@@ -73,11 +73,11 @@ pub struct Hits16 {
     /// Bit `l` set: lane `l` hit.
     pub mask: u32,
     /// Per lane: the hit's distance,
-    pub t: Lanes,
+    pub t: Wide,
     /// and its barycentrics (of the second and third corner).
-    pub u: Lanes,
+    pub u: Wide,
     /// See `u`.
-    pub v: Lanes,
+    pub v: Wide,
 }
 
 impl Hits16 {
@@ -91,40 +91,25 @@ impl Hits16 {
         t_max: &mut f32,
         filter: &F,
     ) {
-        let mut m = self.mask;
-        while m != 0 {
-            let l = m.trailing_zeros() as usize;
-            m &= m - 1;
-            let (t, id) = (self.t[l], block.ids[l]);
-            if (t < *t_max || (t == *t_max && best.is_none_or(|b| id < b.prim)))
-                && (F::OPAQUE || filter.keep(id, self.u[l], self.v[l]))
-            {
-                *t_max = t;
-                *best = Some(Hit {
-                    t,
-                    prim: id,
-                    u: self.u[l],
-                    v: self.v[l],
-                });
-            }
-        }
+        self.lanes(block).fold_closest(best, t_max, filter);
     }
 
     /// Whether some hit counts under `filter`.
     #[inline(always)]
     pub fn any_kept<F: HitFilter>(&self, block: &Tri16, filter: &F) -> bool {
-        if F::OPAQUE {
-            return self.mask != 0;
+        self.lanes(block).any_kept(filter)
+    }
+
+    /// These hits of `block`, lane by lane.
+    #[inline(always)]
+    fn lanes<'a>(&'a self, block: &'a Tri16) -> Lanes<'a> {
+        Lanes {
+            mask: self.mask,
+            ids: &block.ids,
+            t: &self.t,
+            u: &self.u,
+            v: &self.v,
         }
-        let mut m = self.mask;
-        while m != 0 {
-            let l = m.trailing_zeros() as usize;
-            m &= m - 1;
-            if filter.keep(block.ids[l], self.u[l], self.v[l]) {
-                return true;
-            }
-        }
-        false
     }
 }
 
