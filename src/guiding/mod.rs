@@ -15,8 +15,8 @@
 //! refined by [`dtree::BuildTree::refined`]; a record is spread over the
 //! quadtree cells that a box of its cell's size overlaps (Müller 2019's
 //! directional filter, [`dtree::BuildTree::add_filtered`]). Surfaces are
-//! first told apart
-//! by their normal's class ([`NORMAL_CLASSES`]), a choice of ours.
+//! first told apart by their normal's class ([`NORMAL_CLASSES`]), a choice
+//! of ours.
 //!
 //! Why the SD-tree rather than Open PGL's parallax-aware mixtures: it is
 //! exact to reduce in a fixed order (records are summed in the order the
