@@ -93,8 +93,10 @@ impl Default for BuildTree {
 
 impl BuildTree {
     /// Add `value` at point `q` of the square: to the quadrant holding `q`
-    /// at every level down to its leaf.
-    pub fn add(&mut self, q: Vec2, value: f64) {
+    /// at every level down to its leaf. Training filters its records
+    /// ([`BuildTree::add_filtered`]); the tests build trees with this.
+    #[cfg(test)]
+    fn add(&mut self, q: Vec2, value: f64) {
         let mut node = 0usize;
         let mut q = q;
         loop {
