@@ -377,7 +377,7 @@ impl Hits4 {
 
     /// These hits of `block`, lane by lane.
     #[inline(always)]
-    fn lanes<'a>(&'a self, block: &'a Tri4) -> Lanes<'a> {
+    fn lanes<'a>(&'a self, block: &'a Tri4) -> Lanes<'a, 4> {
         Lanes {
             mask: self.mask,
             ids: &block.ids,
@@ -391,18 +391,18 @@ impl Hits4 {
 /// The hits of a block of any width, lane by lane: what
 /// [`Hits4::fold_closest`] and [`Hits4::any_kept`] (and their sixteen-wide
 /// twins, [`super::wide::Hits16`]) fold.
-pub(super) struct Lanes<'a> {
+pub(super) struct Lanes<'a, const N: usize> {
     /// Bit `l` set: lane `l` hit.
     pub mask: u32,
     /// Per lane: the triangle's original index, the hit's distance and
     /// barycentrics.
-    pub ids: &'a [u32],
-    pub t: &'a [f32],
-    pub u: &'a [f32],
-    pub v: &'a [f32],
+    pub ids: &'a [u32; N],
+    pub t: &'a [f32; N],
+    pub u: &'a [f32; N],
+    pub v: &'a [f32; N],
 }
 
-impl Lanes<'_> {
+impl<const N: usize> Lanes<'_, N> {
     /// As [`Hits4::fold_closest`].
     #[inline(always)]
     pub fn fold_closest<F: HitFilter>(&self, best: &mut Option<Hit>, t_max: &mut f32, filter: &F) {

@@ -102,7 +102,7 @@ impl Hits16 {
 
     /// These hits of `block`, lane by lane.
     #[inline(always)]
-    fn lanes<'a>(&'a self, block: &'a Tri16) -> Lanes<'a> {
+    fn lanes<'a>(&'a self, block: &'a Tri16) -> Lanes<'a, LANES> {
         Lanes {
             mask: self.mask,
             ids: &block.ids,
