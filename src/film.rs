@@ -394,6 +394,23 @@ impl Film {
         }
     }
 
+    /// Add the accumulators of `other`'s pixels that lie in this film's
+    /// window (a whole-image film onto a crop's, say); its non-finite count
+    /// is left out.
+    pub fn add_overlap(&mut self, other: &Film) {
+        let (a, b) = (self.bounds(), other.bounds());
+        let (x0, y0) = (a.x0.max(b.x0), a.y0.max(b.y0));
+        let x1 = (a.x0 + a.width).min(b.x0 + b.width);
+        let y1 = (a.y0 + a.height).min(b.y0 + b.height);
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let (i, j) = (self.index(x, y), other.index(x, y));
+                let p = other.pixels[j];
+                self.pixels[i].merge(&p);
+            }
+        }
+    }
+
     /// A tile holding the film's current accumulators for `bounds`, to add
     /// a further pass's samples to. Put back with [`Film::store_tile`], the
     /// samples of every pixel are summed in the order they were taken, so a

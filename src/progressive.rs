@@ -201,12 +201,16 @@ pub fn render_progressive(
     camera: &Camera,
     settings: &RenderSettings,
     budget: &Budget,
+    kept: Option<&Film>,
     on_pass: &mut dyn FnMut(&PassRecord, &Film) -> Result<()>,
 ) -> Result<ProgressiveOutput> {
     budget.validate()?;
     let [w, h] = settings.resolution;
     let n_pixels = u64::from(w) * u64::from(h);
     let mut film = Film::new(w, h);
+    if let Some(k) = kept {
+        film.add_overlap(k);
+    }
     let pool = thread_pool(settings.threads)?;
     let max_spp = budget.max_spp.max(1);
     let mut active = vec![true; n_pixels as usize];

@@ -146,11 +146,15 @@ impl<'s> Renderer<'s> {
                 seed: s.seed,
                 spp: s.spp,
                 progressive: false,
+                reuse: true,
             },
             &pool,
         );
         let tracer = tracer;
         let mut film = Film::new(w, h);
+        if let Some(kept) = tracer.guide().and_then(|g| g.reused()) {
+            film.add_overlap(kept);
+        }
         let mut rays = RayCounts::default();
         let passes = passes.clamp(1, s.spp.max(1));
         let start = Instant::now();

@@ -356,6 +356,7 @@ fn the_guide_learns_where_the_light_is() {
     let train_settings = TrainSettings {
         iterations: 4,
         seed: 1,
+        reuse: false,
     };
     train(
         &mut tracer,
@@ -409,6 +410,7 @@ fn training_is_the_same_guide_for_any_thread_count() {
         let train_settings = TrainSettings {
             iterations: 3,
             seed: 7,
+            reuse: true,
         };
         train(
             &mut tracer,
@@ -422,6 +424,14 @@ fn training_is_the_same_guide_for_any_thread_count() {
     };
     let one = guide(1);
     assert!(one.node_count() > 6, "{} nodes", one.node_count());
+    // iterations 1 and 2 (2 + 4 spp) are kept for the render, part of what
+    // must be the same bits
+    let kept = one.reused().expect("the last iterations' samples");
+    let counts: u64 = kept.pixels().iter().map(|p| p.count).sum();
+    assert!(
+        counts > 6 * 40 * 40 * 9 / 10 && counts <= 6 * 40 * 40,
+        "{counts}"
+    );
     assert_eq!(one, guide(2));
     assert_eq!(one, guide(3));
 }
@@ -594,4 +604,31 @@ fn an_unknown_guiding_mode_is_one_line_and_no_image() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("maybe") && err.contains("auto"), "{err}");
     assert!(!d.join("x.png").exists());
+}
+
+#[test]
+fn a_guided_image_holds_its_last_training_iterations_samples_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // 12 spp trains 1 + 2 spp; iteration 1's 2 spp are kept (iteration 0,
+    // the BSDF alone, is not)
+    guided(d, "whole.exr", &["--shard", "1/1", "--report", "r.json"]);
+    assert_eq!(json(&d.join("r.json"))["guiding"]["kept_spp"], 2);
+    let (film, prov) = embertrace::farm::read_accumulation(&d.join("whole.exr")).unwrap();
+    assert_eq!(prov.kept_spp(), 2);
+    let counts: Vec<u64> = film.pixels().iter().map(|p| p.count).collect();
+    assert!(counts.iter().all(|&c| c <= 14), "{counts:?}");
+    assert!(counts.iter().filter(|&&c| c > 12).count() > counts.len() / 2);
+    // split by samples, only the part from sample 0 holds them
+    guided(d, "a.exr", &["--shard", "1/2", "--report", "ra.json"]);
+    guided(d, "b.exr", &["--shard", "2/2"]);
+    let total = |name: &str| -> u64 {
+        let (f, _) = embertrace::farm::read_accumulation(&d.join(name)).unwrap();
+        f.pixels().iter().map(|p| p.count).sum()
+    };
+    assert_eq!(total("a.exr") + total("b.exr"), counts.iter().sum::<u64>());
+    assert!(total("a.exr") > total("b.exr") + counts.len() as u64);
+    // under --clamp the report would miss their energy: none are kept
+    guided(d, "c.exr", &["--clamp", "100", "--report", "rc.json"]);
+    assert_eq!(json(&d.join("rc.json"))["guiding"]["kept_spp"], 0);
 }

@@ -56,7 +56,7 @@ fn with_tracer<R>(
 
 fn progressive(scene: &Scene, rs: &RenderSettings, budget: Budget) -> ProgressiveOutput {
     with_tracer(scene, rs, |t, c| {
-        render_progressive(t, c, rs, &budget, &mut |_, _| Ok(())).unwrap()
+        render_progressive(t, c, rs, &budget, None, &mut |_, _| Ok(())).unwrap()
     })
 }
 

@@ -116,6 +116,7 @@ fn decide_guiding(
         seed: settings.seed,
         spp: settings.spp,
         progressive: false,
+        reuse: true,
     };
     Ok(prepare(&mut tracer, scene, &camera, &request, &pool))
 }

@@ -247,7 +247,21 @@ pub struct Provenance {
     pub window: TileBounds,
 }
 
+/// How the `guiding` setting (`4 iterations, 12 spp kept`) ends the
+/// training samples per pixel that a guided render's part beginning at
+/// sample 0 holds besides its own ([`crate::guiding::Guide::reused`]).
+pub const KEPT_SPP_SUFFIX: &str = " spp kept";
+
 impl Provenance {
+    /// Training samples per pixel a part beginning at sample 0 holds
+    /// besides its own ([`KEPT_SPP_SUFFIX`]); 0 when unguided.
+    pub fn kept_spp(&self) -> u32 {
+        self.setting("guiding")
+            .and_then(|v| v.split(", ").find_map(|f| f.strip_suffix(KEPT_SPP_SUFFIX)))
+            .and_then(|n| n.parse().ok())
+            .unwrap_or(0)
+    }
+
     /// The value of setting `name`.
     pub fn setting(&self, name: &str) -> Option<&str> {
         self.settings
@@ -567,10 +581,15 @@ pub fn read_accumulation(path: &Path) -> Result<(Film, Provenance)> {
             }
         }
     }
+    let kept = if prov.samples.start == 0 {
+        prov.kept_spp()
+    } else {
+        0
+    };
     let too_many = film
         .pixels()
         .iter()
-        .any(|p| p.count > u64::from(prov.samples.end - prov.samples.start));
+        .any(|p| p.count > u64::from(prov.samples.end - prov.samples.start) + u64::from(kept));
     if too_many {
         return Err(Error::input(
             path,
@@ -684,6 +703,10 @@ pub struct Part<'a> {
     /// saved with every checkpoint so that `--resume` samples from it
     /// without training again.
     pub guide: Option<Vec<u8>>,
+    /// Training samples the render keeps ([`crate::guiding::Guide::reused`]):
+    /// added to the film when the part begins at sample 0 and resumes
+    /// nothing, so that a pixel's parts hold them once.
+    pub kept: Option<&'a Film>,
     /// Set (by a signal handler) to stop after the current pass.
     pub stop: &'a std::sync::atomic::AtomicBool,
 }
@@ -720,7 +743,13 @@ pub fn render_part(
     let target = prov.samples.clone();
     let (mut film, mut done) = match part.resume {
         Some((film, done)) => (film, done),
-        None => (Film::window(prov.window), target.start),
+        None => {
+            let mut film = Film::window(prov.window);
+            if let (Some(k), 0) = (part.kept, target.start) {
+                film.add_overlap(k);
+            }
+            (film, target.start)
+        }
     };
     let pool = crate::render::thread_pool(settings.threads)?;
     let (mut rays, mut nonfinite, mut clamp) = (

@@ -39,9 +39,15 @@
 //! sampled and with what density, and which paths roulette ends; every
 //! sample is weighted by the mixture's density and every survivor by its
 //! probability of going on (never below [`ROULETTE_FLOOR`]), so the
-//! estimator stays unbiased for any guide. The training iterations'
-//! images are not added to the render's (Müller et al. 2017; their 2019
-//! inverse-variance combination is not done here).
+//! estimator stays unbiased for any guide. The last training iterations'
+//! samples are added to the render's film with the weight of a render
+//! sample ([`Guide::reused`], [`crate::integrator::training::REUSED_ITERATIONS`]):
+//! each is an unbiased estimate of its pixel, so the sum is too. Müller
+//! 2019 weights the iterations' images by their estimated inverse
+//! variance instead, which the estimated weights bias (slightly); equal
+//! weights keep the estimator unbiased, and on the door scene the last two
+//! iterations gave 0.929x the mean square error (more iterations, noisier
+//! for their earlier guides, gave less).
 
 mod bytes;
 pub mod dtree;
@@ -159,6 +165,9 @@ pub struct Guide {
     bsdf_shares: Vec<f32>,
     /// Each leaf's share at its upper limit ([`Guide::bsdf_only`]).
     bsdf_only: Vec<bool>,
+    /// The samples of the training iterations the render keeps
+    /// ([`Guide::reused`]); not saved with the guide.
+    reused: Option<std::sync::Arc<crate::film::Film>>,
 }
 
 /// What training's images estimate each pixel to be: the mean luminance of
@@ -234,6 +243,22 @@ impl Guide {
     #[inline]
     pub fn bsdf_only(&self, i: u32) -> bool {
         self.bsdf_only[i as usize]
+    }
+
+    /// This guide with `film`, the samples of the training iterations
+    /// that the render adds to its own ([`Guide::reused`]).
+    pub fn with_reused(mut self, film: crate::film::Film) -> Self {
+        self.reused = Some(std::sync::Arc::new(film));
+        self
+    }
+
+    /// The samples of the last training iterations, which the render adds
+    /// to its film once (the part of a render that begins at sample 0
+    /// adds them; a resumed one already holds them): every one an unbiased
+    /// estimate of its pixel, as the render's are, drawn with an earlier
+    /// guide. `None` for a guide read back from a checkpoint.
+    pub fn reused(&self) -> Option<&crate::film::Film> {
+        self.reused.as_deref()
     }
 
     /// This guide with `pixels`, the training images' estimates.
@@ -364,6 +389,7 @@ impl GuideBuilder {
                 .map(|l| l.fraction.bsdf_share())
                 .collect(),
             bsdf_only: self.leaves.iter().map(|l| l.fraction.saturated()).collect(),
+            reused: None,
         }
     }
 

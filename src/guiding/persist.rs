@@ -188,6 +188,7 @@ impl Guide {
             pixels,
             bsdf_shares: shares,
             bsdf_only: only,
+            reused: None,
         })
     }
 }

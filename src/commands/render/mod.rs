@@ -510,6 +510,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         seed,
         spp,
         progressive: budget.is_progressive(),
+        reuse: args.clamp.is_none(),
     };
     // a guided checkpoint carries its guide: resume samples from it (under
     // --guiding off it is left, and the settings' check refuses the file)
@@ -608,7 +609,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
             ));
             Ok(())
         };
-        let po = render_progressive(&tracer, &camera, &settings, &budget, &mut on_pass)?;
+        let kept = tracer.guide().and_then(|g| g.reused());
+        let po = render_progressive(&tracer, &camera, &settings, &budget, kept, &mut on_pass)?;
         if let Some(path) = &args.convergence {
             image::write_file_atomically(path, log.as_bytes())?;
         }
@@ -630,7 +632,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
         };
         (po.out, Some(info))
     } else {
-        let out = render::render(&tracer, &camera, &settings, &|| bar.inc(1))?;
+        let mut out = render::render(&tracer, &camera, &settings, &|| bar.inc(1))?;
+        if let Some(kept) = tracer.guide().and_then(|g| g.reused()) {
+            out.film.add_overlap(kept);
+        }
         bar.finish_and_clear();
         (out, None)
     };
@@ -812,10 +817,15 @@ fn image_settings(
     // only when guided, so that unguided files written before guiding
     // existed still merge and resume; the training is a function of these
     // settings and the seed, so its iterations name the guide
+    // (and the training samples the part holding sample 0 adds, when any)
     .chain(guiding.on.then(|| {
+        let kept = match guiding.kept_spp {
+            0 => String::new(),
+            n => format!(", {n}{}", farm::KEPT_SPP_SUFFIX),
+        };
         (
             "guiding".to_string(),
-            format!("{} iterations", guiding.iterations),
+            format!("{} iterations{kept}", guiding.iterations),
         )
     }))
     .collect()
@@ -876,6 +886,7 @@ fn render_farm(
             .as_ref()
             .and_then(|_| tracer.guide())
             .map(crate::guiding::Guide::to_bytes),
+        kept: tracer.guide().and_then(|g| g.reused()),
         checkpoint: checkpoint.clone(),
         stop: &STOP,
     };

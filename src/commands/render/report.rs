@@ -150,6 +150,9 @@ pub struct GuidingSummary {
     pub iterations: u32,
     /// Samples per pixel the training traced.
     pub train_spp: u32,
+    /// Of those, samples per pixel the image holds (the last iterations'):
+    /// a pixel's count is the render's samples plus these.
+    pub kept_spp: u32,
     /// The training's seconds.
     pub train_seconds: f64,
     /// Rays the training traced.
@@ -176,6 +179,7 @@ impl GuidingSummary {
             prepass_seconds: g.prepass_seconds,
             iterations: g.iterations,
             train_spp: g.train_spp,
+            kept_spp: g.kept_spp,
             train_seconds: g.train_seconds,
             train_rays: g.train_rays.total(),
             leaves: g.leaves,

@@ -338,7 +338,7 @@ impl Renderer<'_> {
         // the render's clock runs through the callbacks: what denoising
         // took is taken back off, so the times are the render's alone
         let mut denoising = 0.0;
-        let out = render_progressive(&tracer, &camera, &rs, &budget, &mut |p, f| {
+        let out = render_progressive(&tracer, &camera, &rs, &budget, None, &mut |p, f| {
             let rendering = p.seconds - denoising;
             let denoised = denoise
                 .then(|| denoise_pass(&tracer, &camera, &space, s.seed, f))
