@@ -27,7 +27,8 @@ use std::time::Instant;
 #[derive(Debug, Clone)]
 pub struct Renderer<'s> {
     scene: &'s Scene,
-    backend: Backend,
+    /// `None`: [`Backend::for_scene`], as the command line picks.
+    backend: Option<Backend>,
     sampler: SamplerKind,
     flags: Flags,
     denoise: bool,
@@ -35,12 +36,13 @@ pub struct Renderer<'s> {
 }
 
 impl<'s> Renderer<'s> {
-    /// A render of `scene` with its own settings, on the default backend
-    /// (Embree when compiled in) and the default sampler.
+    /// A render of `scene` with its own settings, on the backend the
+    /// command line would take ([`Backend::for_scene`]) and the default
+    /// sampler.
     pub fn new(scene: &'s Scene) -> Self {
         Renderer {
             scene,
-            backend: Backend::default_backend(),
+            backend: None,
             sampler: SamplerKind::default(),
             flags: Flags::default(),
             denoise: false,
@@ -66,7 +68,7 @@ impl<'s> Renderer<'s> {
 
     /// The ray-query backend.
     pub fn backend(mut self, backend: Backend) -> Self {
-        self.backend = backend;
+        self.backend = Some(backend);
         self
     }
 
@@ -130,7 +132,9 @@ impl<'s> Renderer<'s> {
         if self.denoise && !crate::denoise::AVAILABLE {
             return Err(Error::Settings(crate::denoise::HOW_TO_GET.to_string()));
         }
-        let accel = accel::build(self.backend, scene.soup(), AccelOptions::default())?;
+        let soup = scene.soup();
+        let backend = self.backend.unwrap_or_else(|| Backend::for_scene(&soup));
+        let accel = accel::build(backend, soup, AccelOptions::default())?;
         let kernel = Plan::new(scene, &s.integrator).kernel_for(PlanMode::Specialised);
         let mut tracer = PathTracer::with_kernel(scene, accel.as_ref(), s.integrator, kernel);
         let [w, h] = s.resolution;

@@ -17,6 +17,7 @@
 //! `embree4` feature).
 
 pub mod bvh;
+mod hybrid;
 pub mod instance;
 pub mod naive;
 pub mod sphere;
@@ -309,7 +310,19 @@ pub enum Backend {
     Bvh,
     /// Brute force over all triangles.
     Naive,
+    /// Embree for camera rays, the brute force for the rest
+    /// ([`hybrid`]): the default for scenes of at most
+    /// [`SMALL_SCENE_TRIANGLES`] triangles ([`Backend::for_scene`]).
+    EmbreeNaive,
 }
+
+/// The most triangles (and no spheres or instances) for which
+/// [`Backend::for_scene`] picks [`Backend::EmbreeNaive`]: the largest race
+/// scene it was measured faster on (the Cornell box). The brute force's
+/// cost grows with the triangles; at 32 it traced random rays at 12.9 to
+/// 13.1 M/s against Embree's 7.1 to 8.3 (`embertrace bench
+/// scenes/cornell-box.toml`, one thread).
+pub const SMALL_SCENE_TRIANGLES: usize = 32;
 
 impl Backend {
     /// Every backend compiled into this binary.
@@ -328,12 +341,27 @@ impl Backend {
         Backend::available()[0]
     }
 
+    /// The backend a render takes when `--accel` is not given: for a
+    /// scene of triangles alone, at most [`SMALL_SCENE_TRIANGLES`] of them,
+    /// [`Backend::EmbreeNaive`] when Embree is compiled in; otherwise
+    /// [`Backend::default_backend`].
+    pub fn for_scene(soup: &TriangleSoup<'_>) -> Backend {
+        let small = soup.indices.len() <= SMALL_SCENE_TRIANGLES
+            && soup.spheres.is_empty()
+            && soup.instances.triangle_count() == 0;
+        match Backend::default_backend() {
+            Backend::Embree if small => Backend::EmbreeNaive,
+            b => b,
+        }
+    }
+
     /// The name `--accel` uses.
     pub fn name(self) -> &'static str {
         match self {
             Backend::Embree => "embree",
             Backend::Bvh => "bvh",
             Backend::Naive => "naive",
+            Backend::EmbreeNaive => "embree+naive",
         }
     }
 }
@@ -351,8 +379,9 @@ impl FromStr for Backend {
             "embree" => Ok(Backend::Embree),
             "bvh" => Ok(Backend::Bvh),
             "naive" => Ok(Backend::Naive),
+            "embree+naive" => Ok(Backend::EmbreeNaive),
             _ => Err(format!(
-                "unknown backend `{s}` (expected embree, bvh or naive)"
+                "unknown backend `{s}` (expected embree, bvh, naive or embree+naive)"
             )),
         }
     }
@@ -386,6 +415,10 @@ pub fn build(
         Backend::Naive => Ok(Box::new(naive::Naive::new(soup))),
         Backend::Bvh => Ok(Box::new(bvh::Bvh::new(soup, options.bvh_quality)?)),
         Backend::Embree => build_embree(soup, options),
+        Backend::EmbreeNaive => Ok(Box::new(hybrid::Hybrid {
+            packets: build_embree(soup, options)?,
+            scattered: Box::new(naive::Naive::new(soup)),
+        })),
     }
 }
 

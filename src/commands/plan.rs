@@ -104,7 +104,10 @@ fn decide_guiding(
             ..GuidingReport::off(mode)
         });
     }
-    let accel = accel::build(Backend::default_backend(), scene.soup(), Default::default())?;
+    // the backend a render at default flags takes, so that the pre-pass
+    // measures what that render's would
+    let soup = scene.soup();
+    let accel = accel::build(Backend::for_scene(&soup), soup, Default::default())?;
     let [w, h] = settings.resolution;
     let camera = scene.make_camera(w, h);
     let kernel = Plan::new(scene, &settings.integrator).kernel;

@@ -95,8 +95,10 @@ pub struct RenderArgs {
     /// blue-noise error, dearer per sample) or independent (PCG32).
     #[arg(long, default_value_t = SamplerKind::default())]
     sampler: SamplerKind,
-    /// Ray-query backend: embree, bvh (pure Rust) or naive (brute force)
-    /// [embree when compiled in, else bvh].
+    /// Ray-query backend: embree, bvh (pure Rust), naive (brute force) or
+    /// embree+naive (Embree for camera rays, brute force for the rest)
+    /// [embree+naive for a scene of at most 32 triangles and no spheres,
+    /// else embree; bvh without Embree].
     #[arg(long)]
     accel: Option<Backend>,
     /// Direct lighting: mis, light or bsdf [scene default, else mis].
@@ -427,7 +429,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     for warning in &scene.warnings {
         log::warn(&clip(warning));
     }
-    let backend = args.accel.unwrap_or_else(Backend::default_backend);
+    let backend = args
+        .accel
+        .unwrap_or_else(|| Backend::for_scene(&scene.soup()));
 
     let t1 = Instant::now();
     let accel = accel::build(backend, scene.soup(), args.build.options())?;
@@ -478,7 +482,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         integrator.max_depth
     ));
     if log::enabled(log::Level::Verbose) {
-        let library = (backend == Backend::Embree)
+        let library = matches!(backend, Backend::Embree | Backend::EmbreeNaive)
             .then(accel::embree_library)
             .flatten()
             .map_or(String::new(), |l| format!(" ({l})"));
