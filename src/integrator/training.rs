@@ -355,6 +355,8 @@ pub fn prepare(
     }
     GuidingReport {
         mode: request.mode,
+        // an unguided image holds no training samples
+        kept_spp: if report.on { report.kept_spp } else { 0 },
         ..report
     }
 }
@@ -507,7 +509,11 @@ fn train_until(
     // every iteration's samples per pixel: luminance sum, count
     let n_pixels = resolution[0] as usize * resolution[1] as usize;
     let mut pixel_sums = vec![(0.0f64, 0u32); n_pixels];
-    let mut kept = crate::film::Film::new(resolution[0], resolution[1]);
+    // (a second film of the image's size, while the render holds it)
+    let mut kept = match settings.reuse {
+        true => crate::film::Film::new(resolution[0], resolution[1]),
+        false => crate::film::Film::new(0, 0),
+    };
     tracer.set_guide(None);
     tracer.set_recording(true);
     let mut iterations = 0;
