@@ -31,8 +31,8 @@ pub const MAX_MESH_FILE_BYTES: u64 = 1 << 30;
 pub const MAX_RESOLUTION: u32 = 1 << 15;
 
 /// Largest accepted pixel count: 2^28, about 268 Mpixels. The film keeps
-/// per-pixel sums, sums of squares and counts in f64 (56 bytes a pixel,
-/// 15 GiB at this size).
+/// per-pixel sums and sums of squares in fixed point (`u128`) and a count
+/// (112 bytes a pixel, 28 GiB at this size).
 pub const MAX_PIXELS: u64 = 1 << 28;
 
 /// Largest coordinate magnitude a placed vertex may have. Embree silently
