@@ -9,12 +9,24 @@ use crate::math::Vec3;
 use crate::sampling::power_heuristic;
 use crate::settings::DirectStrategy;
 
-/// A light sample waiting for its shadow ray: its lane and what it adds
-/// if the ray is unoccluded (before the throughput).
+/// A light sample waiting for its shadow ray: its lane, and what it adds
+/// if the ray is unoccluded (before the throughput and the MIS weight,
+/// which is computed only then: most shadow rays of a scene lit through a
+/// gap are occluded, and a guided bounce's weight walks the guide's tree).
 #[derive(Debug, Clone, Copy)]
 struct Pending {
     lane: usize,
-    contribution: Vec3,
+    /// The BSDF value (shadowing included) times the light's radiance.
+    f_li: Vec3,
+    /// The direction to the light, in the lane's shading frame and in the
+    /// world.
+    wi_local: Vec3,
+    wi: Vec3,
+    /// The light sample's density.
+    pdf: f32,
+    /// The sample is weighted against BSDF sampling (else by 1: a delta
+    /// light, or no MIS).
+    weighted: bool,
 }
 
 impl PathTracer<'_> {
@@ -45,7 +57,11 @@ impl PathTracer<'_> {
         let mut shadow = [NO_RAY; BATCH];
         let mut pending = [Pending {
             lane: 0,
-            contribution: Vec3::ZERO,
+            f_li: Vec3::ZERO,
+            wi_local: Vec3::Z,
+            wi: Vec3::Z,
+            pdf: 1.0,
+            weighted: false,
         }; BATCH];
         let mut occluded = [false; BATCH];
         let mut any = false;
@@ -86,15 +102,14 @@ impl PathTracer<'_> {
                 if f == Vec3::ZERO || ls.li == Vec3::ZERO {
                     continue;
                 }
-                let w = if delta_light || !mis {
-                    1.0
-                } else {
-                    power_heuristic(n_light, ls.pdf, 1.0, self.scatter_pdf(sh, wi_local, ls.wi))
-                };
                 shadow[n] = ls.shadow;
                 pending[n] = Pending {
                     lane: i,
-                    contribution: f * ls.li * (wi_local.z.abs() * w / ls.pdf),
+                    f_li: f * ls.li,
+                    wi_local,
+                    wi: ls.wi,
+                    pdf: ls.pdf,
+                    weighted: mis && !delta_light,
                 };
                 n += 1;
             }
@@ -115,9 +130,16 @@ impl PathTracer<'_> {
                 }
             }
             for (p, &o) in pending[..n].iter().zip(&occluded[..n]) {
-                if !o {
-                    sum[p.lane] += p.contribution;
+                if o {
+                    continue;
                 }
+                let w = match &shade[p.lane] {
+                    Some(sh) if p.weighted => {
+                        power_heuristic(n_light, p.pdf, 1.0, self.scatter_pdf(sh, p.wi_local, p.wi))
+                    }
+                    _ => 1.0,
+                };
+                sum[p.lane] += p.f_li * (p.wi_local.z.abs() * w / p.pdf);
             }
         }
         if any {
