@@ -26,12 +26,14 @@ use std::time::Instant;
 /// progressive render trains [`PROGRESSIVE_ITERATIONS`], enough): its guide
 /// would learn from too few paths. Measured on
 /// `benches/race/hard/door-ajar.xml` (128 x 128, RMSE against a 4096-spp
-/// reference, 2-core AMD EPYC): at 128 spp (31 spp of training) the guided
-/// render's efficiency was 1.27x to 1.43x the unguided one's over three
-/// seeds; at 64 spp (15 spp of training) its error swung with the seed,
-/// from 0.027 to 0.047 against 0.047 unguided, and the race put it at 3.64x
-/// Mitsuba's time against 2.70x unguided.
-pub const AUTO_MIN_SPP: u32 = 128;
+/// reference, four seeds, 2 threads, 2-core AMD EPYC, 2026-11-29),
+/// efficiency `1 / (MSE x time)` guided over unguided, training included:
+/// 1.43x at 64 spp (RMSE 0.0230 in 2.32 s against 0.0465 in 0.81 s, each
+/// seed within 0.0225 to 0.0236), 1.08x at 32 (0.0373 in 1.19 s against
+/// 0.0673 in 0.40 s). When this was 128, at 64 spp the guided error swung
+/// with the seed (0.027 to 0.047), which the kept training samples, the
+/// directional filter and the learned BSDF share have since steadied.
+pub const AUTO_MIN_SPP: u32 = 64;
 
 /// `auto` guides a scene when at least this share of the pre-pass's light
 /// (luminance, summed over its pixels) arrived after the first non-delta
@@ -246,9 +248,13 @@ pub const AUTO_PROBE_ITERATIONS: u32 = 3;
 /// A guided path's time per ray over an unguided path's: the guide's
 /// lookups, its sampling and densities, and adjoint-driven roulette.
 /// Measured: `benches/race/hard/door-ajar.xml`, 256 spp, 2 threads, 2-core
-/// AMD EPYC (AVX-512): unguided 40.3 M rays in 4.37 s; guided 58.7 M rays
-/// in 11.1 s of rendering after 3.1 s of training, 1.74x per ray.
-pub const GUIDED_RAY_COST: f64 = 1.74;
+/// AMD EPYC (AVX-512), two runs each (`render_seconds` less
+/// `train_seconds`): unguided 40.3 M rays in 3.03 and 3.02 s; guided
+/// 53.2 M rays in 6.17 and 6.13 s of rendering after 2.5 s of training,
+/// 1.55x and 1.54x per ray (2026-11-29; 1.74x on 2026-11-26, before
+/// light sampling deferred its MIS weight to unoccluded samples and the
+/// door took `embree+naive`).
+pub const GUIDED_RAY_COST: f64 = 1.54;
 
 /// A guided sample's predicted time over an unguided one's, once the guide
 /// is trained: the rays per sample of the two pre-passes (`ray_ratio`,
