@@ -7,9 +7,11 @@
 //! sixteen watertight tests, cheaper than a walk of Embree's tree in robust
 //! mode for rays that go every which way; a block of camera rays, which
 //! share their path, Embree traces cheaper as one packet. A shadow ray is
-//! the other way round: Embree stops at its first hit, the brute force
-//! tests every triangle (`bench`: naive shadow rays at 0.61x to 0.64x
-//! Embree's rate on the door, its diffuse bounces at 1.38x to 1.66x).
+//! the other way round: Embree's walk stops at the first hit near the ray,
+//! the brute force goes through blocks of sixteen until one is hit, and
+//! through all of them for a ray that reaches its light (`bench`: naive
+//! shadow rays at 0.61x to 0.64x Embree's rate on the door, its diffuse
+//! bounces at 1.38x to 1.66x).
 //! Sending shadow rays to Embree instead of the brute force, one thread,
 //! user time, alternating (5 rounds, medians of the paired ratios): door
 //! (`benches/race/hard/door-ajar.xml`, 128 spp, unguided) 0.984x the time,

@@ -31,8 +31,9 @@ use std::time::Instant;
 /// 1.43x at 64 spp (RMSE 0.0230 in 2.32 s against 0.0465 in 0.81 s, each
 /// seed within 0.0225 to 0.0236), 1.08x at 32 (0.0373 in 1.19 s against
 /// 0.0673 in 0.40 s). When this was 128, at 64 spp the guided error swung
-/// with the seed (0.027 to 0.047), which the kept training samples, the
-/// directional filter and the learned BSDF share have since steadied.
+/// with the seed (0.027 to 0.047); it has been steady since training keeps
+/// its last two iterations' samples, filters directionally and learns the
+/// BSDF's share.
 pub const AUTO_MIN_SPP: u32 = 64;
 
 /// `auto` guides a scene when at least this share of the pre-pass's light
@@ -251,9 +252,9 @@ pub const AUTO_PROBE_ITERATIONS: u32 = 3;
 /// AMD EPYC (AVX-512), two runs each (`render_seconds` less
 /// `train_seconds`): unguided 40.3 M rays in 3.03 and 3.02 s; guided
 /// 53.2 M rays in 6.17 and 6.13 s of rendering after 2.5 s of training,
-/// 1.55x and 1.54x per ray (2026-11-29; 1.74x on 2026-11-26, before
-/// light sampling deferred its MIS weight to unoccluded samples and the
-/// door took `embree+naive`).
+/// 1.55x and 1.54x per ray (2026-11-29; 1.74x when adjoint-driven
+/// roulette came in, `c340e73`, before light sampling deferred its MIS
+/// weight to unoccluded samples and the door took `embree+naive`).
 pub const GUIDED_RAY_COST: f64 = 1.54;
 
 /// A guided sample's predicted time over an unguided one's, once the guide
