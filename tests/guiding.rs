@@ -456,8 +456,36 @@ fn auto_leaves_the_cornell_box_unguided_and_says_why() {
     let text = ok(d, &["plan", CORNELL]);
     let text = String::from_utf8_lossy(&text.stdout);
     assert!(text.contains("guiding off (auto)"), "{text}");
-    // and the render at default flags (the scene's own size) agrees and
-    // trains nothing
+    // and a render at default flags (the scene's own size; a time limit,
+    // which qualifies for guiding whatever its samples) agrees and trains
+    // nothing
+    ok(
+        d,
+        &[
+            "render",
+            CORNELL,
+            "-q",
+            "--time-limit",
+            "0.1",
+            "-o",
+            "x.exr",
+            "--report",
+            "r.json",
+        ],
+    );
+    let r = &json(&d.join("r.json"))["guiding"];
+    assert_eq!(r["on"], false);
+    assert_eq!(r["train_spp"], 0);
+    assert_eq!(r["indirect_share"], g["indirect_share"]);
+    assert!(r["prepass_seconds"].as_f64().unwrap() > 0.0, "{r}");
+}
+
+/// Below `min_spp` no guide could be learned, so `auto` spends nothing on
+/// finding out whether one would pay: no pre-pass, and `plan` says why.
+#[test]
+fn auto_runs_no_pre_pass_for_a_render_too_short_to_guide() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
     ok(
         d,
         &[
@@ -465,9 +493,20 @@ fn auto_leaves_the_cornell_box_unguided_and_says_why() {
         ],
     );
     let r = &json(&d.join("r.json"))["guiding"];
+    assert_eq!(r["mode"], "auto");
     assert_eq!(r["on"], false);
-    assert_eq!(r["train_spp"], 0);
-    assert_eq!(r["indirect_share"], g["indirect_share"]);
+    assert!(r.get("indirect_share").is_none(), "{r}");
+    assert_eq!(r["prepass_seconds"], 0.0, "{r}");
+    let text = ok(d, &["plan", CORNELL, "-s", "63"]);
+    let text = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        text.contains(
+            "too few samples to learn a guide from (auto guides from 64 spp; no pre-pass ran)"
+        ),
+        "{text}"
+    );
+    let at = ok(d, &["plan", CORNELL, "-s", "64"]);
+    assert!(!String::from_utf8_lossy(&at.stdout).contains("too few samples"));
 }
 
 #[test]
@@ -495,12 +534,12 @@ fn auto_decides_the_door_scene_by_its_guided_pre_pass() {
     assert!(g["gave_up_after"].is_null(), "{g}");
     // the same decision twice: it is a function of the scene and the seed
     assert_eq!(plan("128"), g);
-    // below `min_spp` the guide would learn too little: the share alone
+    // below `min_spp` the guide would learn too little: no pre-pass
     let few = plan("32");
     assert_eq!(few["min_spp"], 64);
     assert_eq!(few["on"], false, "{few}");
     assert!(few["variance_ratio"].is_null(), "{few}");
-    assert_eq!(few["indirect_share"], g["indirect_share"]);
+    assert!(few["indirect_share"].is_null(), "{few}");
 }
 
 /// Under a sky, rough metals' light is the BSDF's to find: the guide

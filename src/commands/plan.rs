@@ -67,7 +67,7 @@ pub fn run(args: PlanArgs) -> Result<()> {
         v["guiding"] = serde_json::json!({
             "mode": guiding.mode.to_string(),
             "on": guiding.on,
-            "indirect_share": guiding.auto.map(|m| m.indirect_share),
+            "indirect_share": guiding.auto.and_then(|m| m.indirect_share),
             "threshold": AUTO_INDIRECT_SHARE,
             "variance_ratio": guiding.auto.and_then(|m| m.variance_ratio),
             "cost_ratio": guiding.auto.and_then(|m| m.cost_ratio),

@@ -163,14 +163,17 @@ impl GuidingReport {
     /// One line for the log and `embertrace plan`.
     pub fn describe(&self) -> String {
         let share = self.auto.map_or(String::new(), |m| {
-            let mut s = format!(
-                "; {:.0} % of the pre-pass's light arrives after the first bounce (auto looks further from {:.0} %)",
-                100.0 * m.indirect_share,
-                100.0 * AUTO_INDIRECT_SHARE
-            );
-            if m.too_few_samples && m.indirect_share >= AUTO_INDIRECT_SHARE {
+            let mut s = match m.indirect_share {
+                Some(share) => format!(
+                    "; {:.0} % of the pre-pass's light arrives after the first bounce (auto looks further from {:.0} %)",
+                    100.0 * share,
+                    100.0 * AUTO_INDIRECT_SHARE
+                ),
+                None => String::new(),
+            };
+            if m.too_few_samples {
                 s += &format!(
-                    "; too few samples to learn a guide from (auto guides from {AUTO_MIN_SPP} spp)"
+                    "; too few samples to learn a guide from (auto guides from {AUTO_MIN_SPP} spp; no pre-pass ran)"
                 );
             }
             if let (Some(v), Some(c), Some(k)) = (m.variance_ratio, m.cost_ratio, m.gave_up_after) {
@@ -212,8 +215,9 @@ impl GuidingReport {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AutoMeasure {
     /// The unguided pre-pass's share of light arriving after the first
-    /// non-delta bounce.
-    pub indirect_share: f64,
+    /// non-delta bounce; `None` when the render has too few samples for
+    /// `auto` to guide it, so that no pre-pass ran.
+    pub indirect_share: Option<f64>,
     /// The guided pre-pass's variance over the unguided one's: the sum over
     /// the pixels of each pixel's sample variance (luminance), `None` when
     /// the share alone said no.
@@ -221,8 +225,10 @@ pub struct AutoMeasure {
     /// A guided sample's predicted time over an unguided one's
     /// ([`guided_cost`]), `None` when the share alone said no.
     pub cost_ratio: Option<f64>,
-    /// The render has fewer samples than [`AUTO_MIN_SPP`], so `auto` did
-    /// not look further than the share.
+    /// The render has fewer samples than [`AUTO_MIN_SPP`], so `auto` left
+    /// guiding off without a pre-pass: whatever the pre-pass measured, the
+    /// guide would learn from too few paths (on the door scene at 16 spp
+    /// the pre-pass was a quarter of the render's time).
     pub too_few_samples: bool,
     /// Training stopped after this many iterations, the guide having not
     /// lowered the pre-pass's variance ([`AUTO_PROBE_ITERATIONS`]); the
@@ -294,20 +300,24 @@ pub fn prepare(
         GuidingMode::Off => GuidingReport::off(GuidingMode::Off),
         GuidingMode::On => train_full(tracer),
         GuidingMode::Auto => {
-            let t = Instant::now();
-            let view = PrepassView::new(request.resolution);
-            let plain = prepass(tracer, camera, &view, request.seed, pool);
             let mut measure = AutoMeasure {
-                indirect_share: plain.share,
+                indirect_share: None,
                 variance_ratio: None,
                 cost_ratio: None,
                 too_few_samples: !request.progressive && request.spp < AUTO_MIN_SPP,
                 gave_up_after: None,
             };
-            if plain.share < AUTO_INDIRECT_SHARE
-                || !(plain.variance > 0.0)
-                || measure.too_few_samples
-            {
+            if measure.too_few_samples {
+                return GuidingReport {
+                    auto: Some(measure),
+                    ..GuidingReport::off(GuidingMode::Auto)
+                };
+            }
+            let t = Instant::now();
+            let view = PrepassView::new(request.resolution);
+            let plain = prepass(tracer, camera, &view, request.seed, pool);
+            measure.indirect_share = Some(plain.share);
+            if plain.share < AUTO_INDIRECT_SHARE || !(plain.variance > 0.0) {
                 return GuidingReport {
                     auto: Some(measure),
                     prepass_seconds: t.elapsed().as_secs_f64(),

@@ -172,7 +172,7 @@ impl GuidingSummary {
         GuidingSummary {
             mode: g.mode.to_string(),
             on: g.on,
-            indirect_share: g.auto.map(|m| m.indirect_share),
+            indirect_share: g.auto.and_then(|m| m.indirect_share),
             variance_ratio: g.auto.and_then(|m| m.variance_ratio),
             cost_ratio: g.auto.and_then(|m| m.cost_ratio),
             gave_up_after: g.auto.and_then(|m| m.gave_up_after),
