@@ -228,7 +228,7 @@ pub struct AutoMeasure {
     /// The render has fewer samples than [`AUTO_MIN_SPP`], so `auto` left
     /// guiding off without a pre-pass: whatever the pre-pass measured, the
     /// guide would learn from too few paths (on the door scene at 16 spp
-    /// the pre-pass was a quarter of the render's time).
+    /// the pre-pass took 0.015 s of a 0.21 s render).
     pub too_few_samples: bool,
     /// Training stopped after this many iterations, the guide having not
     /// lowered the pre-pass's variance ([`AUTO_PROBE_ITERATIONS`]); the
