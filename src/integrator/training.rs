@@ -171,7 +171,7 @@ impl GuidingReport {
                 ),
                 None => String::new(),
             };
-            if m.too_few_samples {
+            if m.too_few_samples() {
                 s += &format!(
                     "; too few samples to learn a guide from (auto guides from {AUTO_MIN_SPP} spp; no pre-pass ran)"
                 );
@@ -225,15 +225,20 @@ pub struct AutoMeasure {
     /// A guided sample's predicted time over an unguided one's
     /// ([`guided_cost`]), `None` when the share alone said no.
     pub cost_ratio: Option<f64>,
-    /// The render has fewer samples than [`AUTO_MIN_SPP`], so `auto` left
-    /// guiding off without a pre-pass: whatever the pre-pass measured, the
-    /// guide would learn from too few paths (on the door scene at 16 spp
-    /// the pre-pass took 0.015 s of a 0.21 s render).
-    pub too_few_samples: bool,
     /// Training stopped after this many iterations, the guide having not
     /// lowered the pre-pass's variance ([`AUTO_PROBE_ITERATIONS`]); the
     /// ratios are that probe's.
     pub gave_up_after: Option<u32>,
+}
+
+impl AutoMeasure {
+    /// The render has fewer samples than [`AUTO_MIN_SPP`], so `auto` left
+    /// guiding off without a pre-pass (no share was measured): whatever the
+    /// pre-pass measured, the guide would learn from too few paths (on the
+    /// door scene at 16 spp the pre-pass took 0.015 s of a 0.21 s render).
+    pub fn too_few_samples(&self) -> bool {
+        self.indirect_share.is_none()
+    }
 }
 
 /// After this many training iterations (`1 + 2 + 4 = 7` samples per pixel)
@@ -304,10 +309,9 @@ pub fn prepare(
                 indirect_share: None,
                 variance_ratio: None,
                 cost_ratio: None,
-                too_few_samples: !request.progressive && request.spp < AUTO_MIN_SPP,
                 gave_up_after: None,
             };
-            if measure.too_few_samples {
+            if !request.progressive && request.spp < AUTO_MIN_SPP {
                 return GuidingReport {
                     auto: Some(measure),
                     ..GuidingReport::off(GuidingMode::Auto)
