@@ -78,6 +78,42 @@ pub enum LightSampler {
     Bvh,
 }
 
+/// Where non-delta bounces sample lights (`--light-sampling`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LightSampling {
+    /// At every non-delta bounce but where the BSDF's lobes are so much
+    /// more concentrated than the lights that BSDF sampling alone does
+    /// better: under the uniform environment by a fixed rule, under an
+    /// environment map where a pre-pass measures that it pays
+    /// (`src/integrator/light_choice.rs`).
+    #[default]
+    Auto,
+    /// At every non-delta bounce (as Mitsuba 3 does).
+    Always,
+}
+
+impl FromStr for LightSampling {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "auto" => Ok(LightSampling::Auto),
+            "always" => Ok(LightSampling::Always),
+            _ => Err(format!(
+                "unknown light sampling `{s}` (expected auto or always)"
+            )),
+        }
+    }
+}
+
+impl fmt::Display for LightSampling {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            LightSampling::Auto => "auto",
+            LightSampling::Always => "always",
+        })
+    }
+}
+
 /// The number of lights (emissive triangles and spheres, point and spot
 /// lights) from which `auto` picks the light BVH. Measured with the 4-wide
 /// tree (guide, "Many lights"): its efficiency was the higher from the
@@ -139,6 +175,8 @@ pub struct IntegratorSettings {
     pub rr_depth: u32,
     /// How a light is chosen.
     pub light_sampler: LightSampler,
+    /// Where bounces sample lights.
+    pub light_sampling: LightSampling,
 }
 
 impl Default for IntegratorSettings {
@@ -150,6 +188,7 @@ impl Default for IntegratorSettings {
             roulette: Roulette::Throughput,
             rr_depth: 3,
             light_sampler: LightSampler::Auto,
+            light_sampling: LightSampling::Auto,
         }
     }
 }
@@ -251,6 +290,8 @@ pub struct Flags {
     pub rr_depth: Option<u32>,
     /// How lights are chosen (`--light-sampler`) [auto].
     pub light_sampler: Option<LightSampler>,
+    /// Where bounces sample lights (`--light-sampling`) [auto].
+    pub light_sampling: Option<LightSampling>,
     /// Render threads (`-t`; 0 = one per core).
     pub threads: usize,
     /// Tile side (`--tile-size`) [`DEFAULT_TILE_SIZE`].
@@ -273,6 +314,7 @@ impl Default for Flags {
             rr: None,
             rr_depth: None,
             light_sampler: None,
+            light_sampling: None,
             threads: 0,
             tile_size: None,
             spp_flag: "-s",
@@ -347,6 +389,7 @@ pub fn resolve(defaults: &RenderDefaults, resolution: [u32; 2], flags: &Flags) -
             roulette: flags.rr.map_or(defaults.roulette, Roulette::Fixed),
             rr_depth: flags.rr_depth.unwrap_or(defaults.rr_depth),
             light_sampler: flags.light_sampler.unwrap_or_default(),
+            light_sampling: flags.light_sampling.unwrap_or_default(),
         },
         spp,
         resolution: [w, h],

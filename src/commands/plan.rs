@@ -10,7 +10,7 @@ use crate::integrator::training::{
 use crate::integrator::{BsdfAlone, PathTracer};
 use crate::plan::Plan;
 use crate::scene::Scene;
-use crate::settings::{self, Flags, LightSampler};
+use crate::settings::{self, Flags, LightSampler, LightSampling};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -31,6 +31,12 @@ pub struct PlanArgs {
     /// light BVH, by importance at the shading point) [default: auto].
     #[arg(long = "light-sampler", value_name = "auto|power|bvh")]
     light_sampler: Option<LightSampler>,
+    /// Where non-delta bounces sample lights: auto (everywhere but where
+    /// the BSDF's lobes are far narrower than the lights: a fixed rule
+    /// under the uniform sky, a pre-pass under an environment map) or
+    /// always [default: auto].
+    #[arg(long = "light-sampling", value_name = "auto|always")]
+    light_sampling: Option<LightSampling>,
     /// Path guiding as `render --guiding` would decide it: auto runs the
     /// render's pre-pass (at the scene's resolution, seed and samples) and
     /// prints the share of light it found arriving after the first bounce,
@@ -43,7 +49,9 @@ pub struct PlanArgs {
     /// `variance_ratio`, `cost_ratio`, `gave_up_after`, `spp`, `min_spp`),
     /// `bsdf_alone`
     /// (`lights_peak_pdf`, `from`, `materials`: where bounces skip light
-    /// sampling).
+    /// sampling by the uniform sky's rule; `measured`: under an environment
+    /// map, what the pre-pass measured and chose, `map_peak_pdf`, `from`,
+    /// `materials`, `variance_ratio`, `cost_ratio`, `skip`, or null).
     #[arg(long)]
     json: bool,
 }
@@ -55,6 +63,7 @@ pub fn run(args: PlanArgs) -> Result<()> {
         max_depth: args.max_depth,
         spp: args.spp,
         light_sampler: args.light_sampler,
+        light_sampling: args.light_sampling,
         ..Flags::default()
     };
     let settings = settings::resolve(&scene.render, scene.resolution, &flags)?;
@@ -79,12 +88,23 @@ pub fn run(args: PlanArgs) -> Result<()> {
             "lights_peak_pdf": alone.lights_peak_pdf,
             "from": alone.from,
             "materials": alone.materials,
+            "measured": guiding.light_choice.as_ref().map(|c| serde_json::json!({
+                "map_peak_pdf": c.map_peak_pdf,
+                "from": c.from,
+                "materials": c.materials,
+                "variance_ratio": c.variance_ratio,
+                "cost_ratio": c.cost_ratio,
+                "skip": c.skip,
+            })),
         });
         println!("{v}");
     } else {
         println!("effects plan for {}:", args.scene.display());
         print!("{}", plan.text());
-        println!("{}", alone.describe());
+        match &guiding.light_choice {
+            Some(choice) => println!("{}", choice.describe()),
+            None => println!("{}", alone.describe()),
+        }
         println!("{}", guiding.describe());
     }
     Ok(())
@@ -92,13 +112,15 @@ pub fn run(args: PlanArgs) -> Result<()> {
 
 /// `render --guiding`'s decision for the scene at its own resolution, seed
 /// and samples: the pre-pass and, where its share of indirect light calls
-/// for it, the training and the guided pre-pass.
+/// for it, the training and the guided pre-pass; and for an unguided
+/// render, where bounces skip light sampling
+/// ([`crate::integrator::light_choice`]).
 fn decide_guiding(
     scene: &Scene,
     settings: &settings::Settings,
     mode: GuidingMode,
 ) -> Result<GuidingReport> {
-    if mode != GuidingMode::Auto {
+    if mode == GuidingMode::On {
         return Ok(GuidingReport {
             on: mode == GuidingMode::On,
             ..GuidingReport::off(mode)

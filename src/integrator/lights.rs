@@ -305,6 +305,29 @@ impl Lights {
         only_uniform.then_some(0.25 * std::f32::consts::FRAC_1_PI)
     }
 
+    /// The highest solid-angle density of light sampling when an
+    /// environment map is the only light: `max L / int L dw` over its
+    /// texels' luminance, the density the map's sampling has where it is
+    /// brightest; `None` for any other set of lights. Unlike
+    /// [`Lights::peak_pdf`]'s, this bound alone does not say where BSDF
+    /// sampling does better (`src/integrator/light_choice.rs` measures it).
+    pub fn environment_map_peak_pdf(&self) -> Option<f32> {
+        let map = self.environment_map.as_ref()?;
+        let only_map =
+            self.area.is_empty() && !self.has_unreachable() && self.environment.is_none();
+        let integral = map.luminance_integral();
+        if !only_map || !(integral > 0.0) {
+            return None;
+        }
+        let max = map
+            .map()
+            .texels()
+            .iter()
+            .map(|&t| crate::math::luminance_f64(t * map.radiance()))
+            .fold(0.0f64, f64::max);
+        Some((max / integral) as f32)
+    }
+
     /// Whether an escaping ray sees any radiance.
     pub fn has_environment(&self) -> bool {
         self.environment.is_some() || self.environment_map.is_some()

@@ -29,6 +29,7 @@
 //! throughput stays finite.
 
 pub mod light_bvh;
+pub mod light_choice;
 mod lights;
 mod path;
 pub mod training;
@@ -145,10 +146,15 @@ pub const LIGHT_SAMPLING_PEAK_RATIO: f32 = 2.0;
 /// light is combined by MIS; otherwise `None` (never). Either way the
 /// estimator is unbiased: a bounce's strategies are chosen by its BSDF
 /// alone, and the BSDF sample's weight says which ran.
-fn bsdf_alone_from(lights: &Lights, direct: crate::settings::DirectStrategy) -> Option<f32> {
+/// Never under `--light-sampling always`.
+fn bsdf_alone_from(lights: &Lights, settings: &IntegratorSettings) -> Option<f32> {
     lights
         .peak_pdf()
-        .filter(|&p| direct == crate::settings::DirectStrategy::Mis && p > 0.0)
+        .filter(|&p| {
+            settings.direct == crate::settings::DirectStrategy::Mis
+                && settings.light_sampling == crate::settings::LightSampling::Auto
+                && p > 0.0
+        })
         .map(|p| LIGHT_SAMPLING_PEAK_RATIO * p)
 }
 
@@ -237,7 +243,7 @@ impl BsdfAlone {
     /// sampling.
     pub fn of(scene: &Scene, settings: &IntegratorSettings) -> Self {
         let lights = Lights::with_sampler(scene, settings.light_sampler);
-        let from = bsdf_alone_from(&lights, settings.direct);
+        let from = bsdf_alone_from(&lights, settings);
         let materials = scene
             .materials
             .iter()
@@ -300,7 +306,7 @@ impl<'a> PathTracer<'a> {
             scene,
             accel,
             alpha: scene.alpha_test(),
-            bsdf_alone_from: bsdf_alone_from(&lights, settings.direct),
+            bsdf_alone_from: bsdf_alone_from(&lights, &settings),
             lights,
             settings,
             albedo: scene
@@ -323,6 +329,26 @@ impl<'a> PathTracer<'a> {
     /// (`None`: the BSDF alone).
     pub fn set_guide(&mut self, guide: Option<std::sync::Arc<crate::guiding::Guide>>) {
         self.guide = guide;
+    }
+
+    /// The BSDF peak density from which a non-delta bounce samples the
+    /// BSDF alone, no light; `None`: every non-delta bounce samples lights.
+    pub fn bsdf_alone_from(&self) -> Option<f32> {
+        self.bsdf_alone_from
+    }
+
+    /// Let non-delta bounces whose BSDF's lobes all peak at `from` or
+    /// higher sample the BSDF alone (`None`: none does); set by
+    /// [`light_choice::decide`] from its pre-pass. Unbiased for any
+    /// value: MIS then weighs the light such a bounce's BSDF sample finds
+    /// by 1.
+    pub fn set_bsdf_alone_from(&mut self, from: Option<f32>) {
+        self.bsdf_alone_from = from;
+    }
+
+    /// The lights as the estimator samples them.
+    pub(crate) fn lights(&self) -> &Lights {
+        &self.lights
     }
 
     /// The guide the render samples from, if any.

@@ -12,6 +12,7 @@
 //! the same training, so shards merge to the one-machine image bit for bit,
 //! and a resumed render trains again to the same guide.
 
+use super::light_choice::LightChoice;
 use super::{BATCH, BLOCK, GuideVertex, Lane, PathTracer, RayCounts, take_recorded};
 use crate::camera::Camera;
 use crate::guiding::{GuideBuilder, GuidingMode, PixelEstimate, Record};
@@ -139,6 +140,9 @@ pub struct GuidingReport {
     /// The guide was read from the checkpoint the render resumes
     /// ([`resume`]): no pre-pass, no training.
     pub from_checkpoint: bool,
+    /// Where bounces skip light sampling, when a pre-pass decided it
+    /// ([`super::light_choice`]; run before the guiding's, unguided).
+    pub light_choice: Option<LightChoice>,
 }
 
 impl GuidingReport {
@@ -147,6 +151,7 @@ impl GuidingReport {
         GuidingReport {
             mode,
             on: false,
+            light_choice: None,
             auto: None,
             prepass_seconds: 0.0,
             iterations: 0,
@@ -290,7 +295,45 @@ pub fn guided_cost(ray_ratio: f64) -> f64 {
 /// so the decision is too. The tracer is left with the guide when guiding
 /// is on (and none otherwise); the report counts the pre-passes' time and
 /// the training's, whether kept or not.
+///
+/// Then, when the render is not guided and its lights call for it, a
+/// pre-pass decides where bounces skip light sampling
+/// ([`super::light_choice::decide`]). Guiding's pre-passes and training
+/// run with light sampling at every bounce, so its decision does not
+/// depend on this one; a guided render keeps light sampling everywhere.
 pub fn prepare(
+    tracer: &mut PathTracer<'_>,
+    scene: &Scene,
+    camera: &Camera,
+    request: &GuidingRequest,
+    pool: &rayon::ThreadPool,
+) -> GuidingReport {
+    let report = prepare_guiding(tracer, scene, camera, request, pool);
+    let t = Instant::now();
+    let light_choice = if report.on {
+        None
+    } else {
+        let view = PrepassView::new(request.resolution);
+        super::light_choice::decide(tracer, request.spp, request.progressive, |tracer| {
+            let p = prepass(tracer, camera, &view, request.seed, pool);
+            (p.variance, p.rays)
+        })
+    };
+    // only when a pre-pass ran for it
+    let light_seconds = if light_choice.is_some() {
+        t.elapsed().as_secs_f64()
+    } else {
+        0.0
+    };
+    GuidingReport {
+        light_choice,
+        prepass_seconds: report.prepass_seconds + light_seconds,
+        ..report
+    }
+}
+
+/// [`prepare`]'s guiding decision.
+fn prepare_guiding(
     tracer: &mut PathTracer<'_>,
     scene: &Scene,
     camera: &Camera,
@@ -348,7 +391,8 @@ pub fn prepare(
                     if variance < 1.0 {
                         return false;
                     }
-                    let cost = guided_cost(probe.rays as f64 / plain.rays.max(1) as f64);
+                    let cost =
+                        guided_cost(probe.rays.total() as f64 / plain.rays.total().max(1) as f64);
                     gave_up = Some((variance, cost));
                     true
                 },
@@ -357,7 +401,8 @@ pub fn prepare(
             let (variance, cost) = gave_up.unwrap_or_else(|| {
                 let guided = prepass(tracer, camera, &view, request.seed, pool);
                 let variance = guided.variance / plain.variance;
-                let cost = guided_cost(guided.rays as f64 / plain.rays.max(1) as f64);
+                let cost =
+                    guided_cost(guided.rays.total() as f64 / plain.rays.total().max(1) as f64);
                 (variance, cost)
             });
             measure.variance_ratio = Some(variance);
@@ -411,8 +456,8 @@ struct Prepass {
     share: f64,
     /// The pixels' sample variances (luminance), summed.
     variance: f64,
-    /// Rays traced.
-    rays: u64,
+    /// Rays traced, by kind.
+    rays: RayCounts,
 }
 
 /// [`PREPASS_SPP`] samples per pixel of `view` with the tracer as it is
@@ -427,7 +472,7 @@ fn prepass(
     tracer.set_recording(true);
     let shared: &PathTracer<'_> = tracer;
     let blocks = block_origins(view.resolution);
-    let sums: Vec<([f64; 3], u64)> = pool.install(|| {
+    let sums: Vec<([f64; 3], RayCounts)> = pool.install(|| {
         blocks
             .par_iter()
             .map(|&origin| {
@@ -469,18 +514,18 @@ fn prepass(
                     .iter()
                     .map(|&[sum, sq]| ((sq - sum * sum / n) / (n - 1.0)).max(0.0))
                     .sum();
-                ([light[0], light[1], variance], rays.total())
+                ([light[0], light[1], variance], rays)
             })
             .collect()
     });
     tracer.set_recording(false);
     let mut total = [0.0f64; 3];
-    let mut rays = 0;
+    let mut rays = RayCounts::default();
     for (s, r) in &sums {
         for k in 0..3 {
             total[k] += s[k];
         }
-        rays += r;
+        rays.add(r);
     }
     Prepass {
         share: if total[0] > 0.0 {
@@ -609,6 +654,7 @@ fn train_until(
         mode: GuidingMode::On,
         on: true,
         auto: None,
+        light_choice: None,
         prepass_seconds: 0.0,
         iterations,
         train_spp: (1u32 << iterations) - 1,

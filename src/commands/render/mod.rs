@@ -23,7 +23,7 @@ use crate::progressive::{Adaptive, Budget, CONFIDENCE, PassRecord, render_progre
 use crate::render::{self, RenderSettings};
 use crate::sampler::SamplerKind;
 use crate::scene::Scene;
-use crate::settings::{self, Flags, LightSampler};
+use crate::settings::{self, Flags, LightSampler, LightSampling};
 use crate::settings::{DirectStrategy, IntegratorSettings, Roulette};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -121,6 +121,12 @@ pub struct RenderArgs {
     /// light BVH, by importance at the shading point) [default: auto].
     #[arg(long = "light-sampler", value_name = "auto|power|bvh")]
     light_sampler: Option<LightSampler>,
+    /// Where non-delta bounces sample lights: auto (everywhere but where
+    /// the BSDF's lobes are far narrower than the lights: a fixed rule
+    /// under the uniform sky, a pre-pass under an environment map) or
+    /// always [default: auto].
+    #[arg(long = "light-sampling", value_name = "auto|always")]
+    light_sampling: Option<LightSampling>,
     /// Path guiding: auto (where a pre-pass finds most of the light arriving
     /// after the first bounce, the guide is trained and kept if a guided
     /// pre-pass reaches a lower error in the same time), on or off. A guided
@@ -409,6 +415,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         rr: args.rr,
         rr_depth: args.rr_depth,
         light_sampler: args.light_sampler,
+        light_sampling: args.light_sampling,
         threads: args.threads,
         tile_size: Some(args.tile_size),
         ..Flags::default()
@@ -532,6 +539,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
             &render::thread_pool(resolved.threads)?,
         ),
     };
+    if let Some(choice) = &guiding.light_choice {
+        say(&choice.describe());
+    }
     if args.guiding != GuidingMode::Off {
         say(&guiding.describe());
     }
@@ -659,6 +669,10 @@ pub fn run(args: RenderArgs) -> Result<()> {
     report.kernel = kernel.describe();
     report.simd = crate::simd::active().to_string();
     report.guiding = Some(report::GuidingSummary::of(&guiding));
+    report.light_sampling = guiding
+        .light_choice
+        .as_ref()
+        .map(report::LightSamplingSummary::of);
     // the pre-pass and the training are part of the render's time
     report.render_seconds += guiding.prepass_seconds + guiding.train_seconds;
     if let Some(p) = progress {
@@ -817,6 +831,10 @@ fn image_settings(
     .chain(
         (i.light_sampler != LightSampler::Auto)
             .then(|| ("light_sampler".to_string(), i.light_sampler.to_string())),
+    )
+    .chain(
+        (i.light_sampling != LightSampling::Auto)
+            .then(|| ("light_sampling".to_string(), i.light_sampling.to_string())),
     )
     // only when guided, so that unguided files written before guiding
     // existed still merge and resume; the training is a function of these

@@ -117,6 +117,39 @@ pub struct RenderReport {
     /// seconds are also in `render_seconds`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub guiding: Option<GuidingSummary>,
+    /// Where bounces skip light sampling, as an unguided render under an
+    /// environment map measured it (`crate::integrator::light_choice`;
+    /// absent where no pre-pass ran for it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub light_sampling: Option<LightSamplingSummary>,
+}
+
+/// The report's `light_sampling` object.
+#[derive(Debug, Clone, Serialize)]
+pub struct LightSamplingSummary {
+    /// The candidate materials sampled their BSDF alone.
+    pub skip: bool,
+    /// The candidates: materials whose lobes all peak at or above `from`.
+    pub materials: Vec<String>,
+    /// That peak density (`/sr`).
+    pub from: f32,
+    /// The pre-pass's variance with the candidates skipping over without.
+    pub variance_ratio: f64,
+    /// Its predicted time per sample skipping over not.
+    pub cost_ratio: f64,
+}
+
+impl LightSamplingSummary {
+    /// The summary of `c`.
+    pub fn of(c: &crate::integrator::light_choice::LightChoice) -> Self {
+        LightSamplingSummary {
+            skip: c.skip,
+            materials: c.materials.clone(),
+            from: c.from,
+            variance_ratio: c.variance_ratio,
+            cost_ratio: c.cost_ratio,
+        }
+    }
 }
 
 /// The report's `guiding` object.
@@ -144,7 +177,8 @@ pub struct GuidingSummary {
     /// absent otherwise).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gave_up_after: Option<u32>,
-    /// The pre-pass's seconds.
+    /// The pre-passes' seconds (guiding's, and light sampling's where one
+    /// ran for it).
     pub prepass_seconds: f64,
     /// Training iterations (1, 2, 4, ... spp).
     pub iterations: u32,
@@ -258,6 +292,7 @@ impl RenderReport {
             threads: out.threads,
             simd: String::new(),
             guiding: None,
+            light_sampling: None,
             load_seconds,
             accel_build_seconds,
             render_seconds: out.seconds,
