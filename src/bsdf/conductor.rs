@@ -25,7 +25,7 @@
 use super::fresnel::{fr_conductor, reflect};
 use super::microfacet::Microfacet;
 use super::mirror::specular_reflection;
-use super::{BsdfSample, Bxdf, sample_at};
+use super::{BsdfSample, Bxdf};
 use crate::math::{Vec2, Vec3};
 
 /// A rough (or smooth) conductor.
@@ -63,6 +63,36 @@ impl Conductor {
     /// Fresnel reflectance for a cosine between `wo` and the (micro)normal.
     pub fn fresnel(&self, cos: f32) -> Vec3 {
         fr_conductor(cos, self.eta, self.k)
+    }
+}
+
+impl Conductor {
+    /// [`Bxdf::eval`] and [`Bxdf::pdf`] at `(wo, wi)`, bit for bit, with
+    /// the half vector, `D` and `wo`'s `Lambda` computed once: a BSDF
+    /// sample needs both (the same steps in the same order as the two
+    /// methods; `tests` compares them).
+    #[inline]
+    fn eval_and_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        if self.microfacet.is_smooth() || !(wo.z > 0.0 && wi.z > 0.0) {
+            return (Vec3::ZERO, 0.0);
+        }
+        let sum = wo + wi;
+        let len = sum.length();
+        if !(len > 0.0) {
+            return (Vec3::ZERO, 0.0);
+        }
+        let d = self.microfacet.d(sum / len);
+        if !(d > 0.0) {
+            // pdf: G1 d / (4 wo.z) is 0, or NaN (then 0) for a NaN d
+            return (Vec3::ZERO, 0.0);
+        }
+        let (g, g1) = self.microfacet.g_and_g1(wo, wi);
+        let f = self.fresnel(0.5 * len) * (d * g / (4.0 * (wo.z * wi.z)));
+        let p = g1 * d / (4.0 * wo.z);
+        (
+            if f.is_finite() { f } else { Vec3::ZERO },
+            if p.is_finite() { p } else { 0.0 },
+        )
     }
 }
 
@@ -111,7 +141,18 @@ impl Bxdf for Conductor {
             return specular_reflection(wo, self.fresnel(wo.z), 1.0);
         }
         let h = self.microfacet.sample_visible(wo, u)?;
-        sample_at(self, wo, reflect(wo, h))
+        let wi = reflect(wo, h);
+        if !(wi.z > 0.0) {
+            return None;
+        }
+        let (f, pdf) = self.eval_and_pdf(wo, wi);
+        BsdfSample {
+            wi,
+            f,
+            pdf,
+            delta: false,
+        }
+        .checked()
     }
 
     fn is_delta(&self) -> bool {
@@ -140,7 +181,40 @@ impl Bxdf for Conductor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bsdf::microfacet::Distribution;
+    use crate::bsdf::microfacet::{Distribution, Masking};
+
+    #[test]
+    fn a_sample_carries_eval_and_pdf_bit_for_bit() {
+        // the sample computes both at once; MIS needs them equal to the
+        // separate calls, bit for bit
+        let mut n = 0;
+        for distribution in [Distribution::Ggx, Distribution::Beckmann] {
+            for masking in [Masking::HeightCorrelated, Masking::Separable] {
+                for alpha in [0.02f32, 0.1, 0.5, 1.3] {
+                    let c = Conductor {
+                        eta: Vec3::new(0.2, 0.92, 1.1),
+                        k: Vec3::new(3.9, 2.45, 2.2),
+                        microfacet: Microfacet::new(distribution, alpha).with_masking(masking),
+                    };
+                    for i in 0..200 {
+                        let t = (i as f32 + 0.5) / 200.0;
+                        let wo = Vec3::new(0.9 * t - 0.3, 0.4 - 0.5 * t, 0.05 + t).normalize();
+                        let u = Vec2::new((7.0 * t).fract(), (13.0 * t).fract());
+                        if let Some(s) = c.sample(wo, u) {
+                            let (f, pdf) = (c.eval(wo, s.wi), c.pdf(wo, s.wi));
+                            assert_eq!(
+                                s.f.to_array().map(f32::to_bits),
+                                f.to_array().map(f32::to_bits)
+                            );
+                            assert_eq!(s.pdf.to_bits(), pdf.to_bits(), "{distribution:?} {alpha}");
+                            n += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(n > 2000, "{n} samples");
+    }
 
     #[test]
     fn smooth_is_a_mirror_with_conductor_fresnel() {

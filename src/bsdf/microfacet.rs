@@ -209,6 +209,20 @@ impl Microfacet {
         }
     }
 
+    /// [`Microfacet::g`] of `(wo, wi)` and [`Microfacet::g1`] of `wo`
+    /// together, bit for bit as the two calls give them, with `wo`'s
+    /// `Lambda` computed once (a BSDF sample needs both: `f` and `pdf`).
+    #[inline]
+    pub fn g_and_g1(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
+        let (lo, li) = (self.lambda(wo), self.lambda(wi));
+        let g1_wo = 1.0 / (1.0 + lo);
+        let g = match self.masking {
+            Masking::HeightCorrelated => 1.0 / (1.0 + (lo + li)),
+            Masking::Separable => g1_wo * (1.0 / (1.0 + li)),
+        };
+        (g, g1_wo)
+    }
+
     /// Density of visible normals seen from `w` (`w.z > 0`), per steradian of
     /// `h`: `G1(w) max(0, w . h) D(h) / w.z`.
     pub fn d_visible(&self, w: Vec3, h: Vec3) -> f32 {
