@@ -207,3 +207,35 @@ fn skipping_light_sampling_keeps_the_image_mean() {
         t.report("skipping x 1.01")
     );
 }
+
+#[test]
+fn shards_that_skip_light_sampling_merge_to_the_one_machine_render() {
+    // every shard runs the same pre-passes, so every shard skips alike
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let base = ["render", GLOSSY_ENV, "-q", "-r", "32", "32", "-s", "16"];
+    for (k, out) in [("1/2", p("a.exr")), ("2/2", p("b.exr"))] {
+        let mut args = base.to_vec();
+        args.extend_from_slice(&["--shard", k, "-o", &out]);
+        ok(&args);
+    }
+    ok(&[
+        "merge",
+        &p("a.exr"),
+        &p("b.exr"),
+        "-q",
+        "-o",
+        &p("merged.pfm"),
+    ]);
+    let mut args = base.to_vec();
+    let (whole, report) = (p("whole.pfm"), p("r.json"));
+    args.extend_from_slice(&["-o", &whole, "--report", &report]);
+    ok(&args);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(report["light_sampling"]["skip"], true);
+    assert_eq!(
+        std::fs::read(p("merged.pfm")).unwrap(),
+        std::fs::read(&whole).unwrap()
+    );
+}
