@@ -112,7 +112,9 @@ impl LightChoice {
 /// set so ([`PathTracer::set_bsdf_alone_from`]). `prepass` traces the
 /// pre-pass with the tracer as it is set and returns the pixels' summed
 /// sample variance and the rays it traced (`auto` guiding's pre-pass,
-/// [`super::training`]). `None`, and the tracer untouched, unless the
+/// [`super::training`]); `every`, when given, is its result with light
+/// sampling at every bounce (the tracer's setting under an environment
+/// map, before this), already traced by guiding's `auto`. `None`, and the tracer untouched, unless the
 /// environment map is the only light, `--light-sampling` is `auto`,
 /// direct light is combined by MIS, the render has [`MIN_SPP`] samples or
 /// is progressive, and some material is a candidate. For unguided renders
@@ -121,6 +123,7 @@ pub fn decide(
     tracer: &mut PathTracer<'_>,
     spp: u32,
     progressive: bool,
+    every: Option<(f64, RayCounts)>,
     mut prepass: impl FnMut(&mut PathTracer<'_>) -> (f64, RayCounts),
 ) -> Option<LightChoice> {
     let settings = tracer.settings();
@@ -145,8 +148,13 @@ pub fn decide(
         return None;
     }
     let before = tracer.bsdf_alone_from();
-    tracer.set_bsdf_alone_from(None);
-    let (every, every_rays) = prepass(tracer);
+    // under an environment map the tracer starts with light sampling
+    // everywhere (the uniform sky's rule does not apply)
+    debug_assert_eq!(before, None);
+    let (every, every_rays) = every.unwrap_or_else(|| {
+        tracer.set_bsdf_alone_from(None);
+        prepass(tracer)
+    });
     tracer.set_bsdf_alone_from(Some(from));
     let (alone, alone_rays) = prepass(tracer);
     let cost = |r: &RayCounts| (r.camera + r.extension) as f64 + SHADOW_RAY_COST * r.shadow as f64;

@@ -308,13 +308,17 @@ pub fn prepare(
     request: &GuidingRequest,
     pool: &rayon::ThreadPool,
 ) -> GuidingReport {
-    let report = prepare_guiding(tracer, scene, camera, request, pool);
+    let mut plain = None;
+    let report = prepare_guiding(tracer, scene, camera, request, pool, &mut plain);
     let t = Instant::now();
     let light_choice = if report.on {
         None
     } else {
+        // guiding's unguided pre-pass, where it ran, is the one with light
+        // sampling everywhere: the same view, seed and tracer settings
+        let every = plain.map(|p: Prepass| (p.variance, p.rays));
         let view = PrepassView::new(request.resolution);
-        super::light_choice::decide(tracer, request.spp, request.progressive, |tracer| {
+        super::light_choice::decide(tracer, request.spp, request.progressive, every, |tracer| {
             let p = prepass(tracer, camera, &view, request.seed, pool);
             (p.variance, p.rays)
         })
@@ -332,13 +336,15 @@ pub fn prepare(
     }
 }
 
-/// [`prepare`]'s guiding decision.
+/// [`prepare`]'s guiding decision; `auto`'s unguided pre-pass, where it
+/// ran, is left in `plain`.
 fn prepare_guiding(
     tracer: &mut PathTracer<'_>,
     scene: &Scene,
     camera: &Camera,
     request: &GuidingRequest,
     pool: &rayon::ThreadPool,
+    plain_out: &mut Option<Prepass>,
 ) -> GuidingReport {
     let train_full = |tracer: &mut PathTracer<'_>| {
         let settings = request.train_settings();
@@ -363,6 +369,7 @@ fn prepare_guiding(
             let t = Instant::now();
             let view = PrepassView::new(request.resolution);
             let plain = prepass(tracer, camera, &view, request.seed, pool);
+            *plain_out = Some(plain.clone());
             measure.indirect_share = Some(plain.share);
             if plain.share < AUTO_INDIRECT_SHARE || !(plain.variance > 0.0) {
                 return GuidingReport {
@@ -450,6 +457,7 @@ impl PrepassView {
 }
 
 /// What a pre-pass found.
+#[derive(Debug, Clone)]
 struct Prepass {
     /// Share of the light (luminance) arriving after the first non-delta
     /// bounce.
