@@ -77,7 +77,8 @@ struct Options {
     resolution: Option<(u32, u32)>,
     seed: u64,
     threads: usize,
-    accel: String,
+    /// `None`: the command line's default for the scene.
+    accel: Option<String>,
     max_depth: Option<u32>,
     passes: Option<u32>,
     denoise: bool,
@@ -120,7 +121,7 @@ impl Scene {
     }
 
     /// Render the scene; see `embertrace.render`.
-    #[pyo3(signature = (spp=None, resolution=None, seed=0, threads=0, accel="embree", denoise=false, *, max_depth=None, passes=None, progress=None, guiding="auto"))]
+    #[pyo3(signature = (spp=None, resolution=None, seed=0, threads=0, accel=None, denoise=false, *, max_depth=None, passes=None, progress=None, guiding="auto"))]
     #[allow(clippy::too_many_arguments)] // Python's keyword arguments
     fn render<'py>(
         &self,
@@ -129,7 +130,7 @@ impl Scene {
         resolution: Option<(u32, u32)>,
         seed: u64,
         threads: usize,
-        accel: &str,
+        accel: Option<&str>,
         denoise: bool,
         max_depth: Option<u32>,
         passes: Option<u32>,
@@ -141,7 +142,7 @@ impl Scene {
             resolution,
             seed,
             threads,
-            accel: accel.to_string(),
+            accel: accel.map(str::to_string),
             max_depth,
             passes,
             denoise,
@@ -167,20 +168,26 @@ fn render_scene<'py>(
     o: &Options,
     progress: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyArray3<f32>>> {
-    let backend: Backend = o
+    let backend: Option<Backend> = o
         .accel
-        .parse()
-        .map_err(|e| PyValueError::new_err(format!("accel={:?}: {e}", o.accel)))?;
+        .as_deref()
+        .map(|a| {
+            a.parse()
+                .map_err(|e| PyValueError::new_err(format!("accel={a:?}: {e}")))
+        })
+        .transpose()?;
     let guiding: GuidingMode = o
         .guiding
         .parse()
         .map_err(|e| PyValueError::new_err(format!("guiding={:?}: {e}", o.guiding)))?;
     let mut renderer = Renderer::new(scene)
-        .backend(backend)
         .guiding(guiding)
         .seed(o.seed)
         .threads(o.threads)
         .denoise(o.denoise);
+    if let Some(backend) = backend {
+        renderer = renderer.backend(backend);
+    }
     if let Some(spp) = o.spp {
         renderer = renderer.spp(spp);
     }
@@ -265,14 +272,15 @@ fn load(py: Python<'_>, path: PathBuf, camera: Option<String>) -> PyResult<Scene
 /// Render a scene (a path or a loaded `Scene`) and return the image as a
 /// NumPy array of shape `(height, width, 3)`, float32, linear RGB, rows from
 /// the top. `spp`, `resolution` (`(width, height)`) and `max_depth` default
-/// to the scene's; `threads=0` uses every core; `accel` is `"embree"` or
-/// `"bvh"`; `denoise` runs Intel Open Image Denoise at the end (a module built
+/// to the scene's; `threads=0` uses every core; `accel` is `"embree"`,
+/// `"bvh"`, `"naive"` or `"embree+naive"` (`None`: the command line's
+/// default for the scene); `denoise` runs Intel Open Image Denoise at the end (a module built
 /// with the `denoise` feature); `passes` (default 64) splits the samples, and `progress` is
 /// called after each pass with a dict (`pass`, `passes`, `samples`, `spp`,
 /// `seconds`); `guiding` is `"auto"`, `"on"` or `"off"`, as `render
 /// --guiding`. Ctrl-C stops the render after the pass under way.
 #[pyfunction]
-#[pyo3(signature = (scene, spp=None, resolution=None, seed=0, threads=0, accel="embree", denoise=false, *, max_depth=None, passes=None, progress=None, guiding="auto"))]
+#[pyo3(signature = (scene, spp=None, resolution=None, seed=0, threads=0, accel=None, denoise=false, *, max_depth=None, passes=None, progress=None, guiding="auto"))]
 #[allow(clippy::too_many_arguments)] // Python's keyword arguments
 fn render<'py>(
     py: Python<'py>,
@@ -281,7 +289,7 @@ fn render<'py>(
     resolution: Option<(u32, u32)>,
     seed: u64,
     threads: usize,
-    accel: &str,
+    accel: Option<&str>,
     denoise: bool,
     max_depth: Option<u32>,
     passes: Option<u32>,
