@@ -416,8 +416,14 @@ impl<'a> PathTracer<'a> {
         let direct = self.settings.direct;
         if (EMITTERS || ENVIRONMENT) && (direct != DirectStrategy::Light || prev.delta) {
             let wi = lane.ray.d;
+            // the light's density is wanted only for an MIS weight
+            let weighs = direct == DirectStrategy::Mis && !prev.delta && prev.light_sampled;
             let (le, light_pdf) = match &its {
-                None if ENVIRONMENT => self.lights.environment_and_pdf(wi),
+                None if ENVIRONMENT && weighs => self.lights.environment_and_pdf(wi),
+                // the same radiance, no density: the bounce that sent the
+                // ray sampled no light (a narrow lobe's, see
+                // `light_choice`), so its BSDF sample weighs 1
+                None if ENVIRONMENT => (self.lights.environment(wi), 0.0),
                 // emission seen only: not after a non-delta bounce, nor
                 // past the last bounce (EmissionRole::SeenOnly)
                 Some(n)
@@ -436,7 +442,7 @@ impl<'a> PathTracer<'a> {
                 _ => (Vec3::ZERO, 0.0),
             };
             if le != Vec3::ZERO {
-                let w = if direct == DirectStrategy::Mis && !prev.delta && prev.light_sampled {
+                let w = if weighs {
                     let n_light = self.settings.light_samples.max(1) as f32;
                     power_heuristic(1.0, prev.pdf, n_light, light_pdf)
                 } else {
