@@ -239,3 +239,40 @@ fn shards_that_skip_light_sampling_merge_to_the_one_machine_render() {
         std::fs::read(&whole).unwrap()
     );
 }
+
+#[test]
+fn plan_names_the_candidates_and_what_the_pre_pass_chose() {
+    let plan = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_embertrace"))
+            .arg("plan")
+            .args(args)
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+        let text = String::from_utf8(out.stdout).unwrap();
+        text.lines()
+            .find(|l| l.starts_with("light sampling:"))
+            .unwrap()
+            .to_string()
+    };
+    // too few samples for the pre-pass: the candidates, and when it runs
+    let short = plan(&[GLOSSY_ENV, "-s", "8"]);
+    assert!(
+        short.contains("at every non-delta bounce here")
+            && short.contains("`rectangle at line 54`")
+            && short.contains("at least 16 spp"),
+        "{short}"
+    );
+    // the scene's 64 spp: what it measured
+    let full = plan(&[GLOSSY_ENV]);
+    assert!(
+        full.contains("skipped where the BSDF's lobes are narrow")
+            && full.contains("a pre-pass measured"),
+        "{full}"
+    );
+    // the materials scene's lobes are all broader than its sky's peak
+    let materials = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/materials.toml");
+    let none = plan(&[materials]);
+    assert!(none.contains("no material's lobes all peak"), "{none}");
+    assert!(plan(&[GLOSSY_ENV, "--light-sampling", "always"]).contains("--light-sampling always"));
+}

@@ -49,9 +49,12 @@ pub struct PlanArgs {
     /// `variance_ratio`, `cost_ratio`, `gave_up_after`, `spp`, `min_spp`),
     /// `bsdf_alone`
     /// (`lights_peak_pdf`, `from`, `materials`: where bounces skip light
-    /// sampling by the uniform sky's rule; `measured`: under an environment
-    /// map, what the pre-pass measured and chose, `map_peak_pdf`, `from`,
-    /// `materials`, `variance_ratio`, `cost_ratio`, `skip`, or null).
+    /// sampling by the uniform sky's rule; `map_peak_pdf` and
+    /// `map_candidates`: under an environment map that is the only light,
+    /// its highest density and the materials a pre-pass may let skip it;
+    /// `measured`: what that pre-pass measured and chose, `map_peak_pdf`,
+    /// `from`, `materials`, `variance_ratio`, `cost_ratio`, `skip`, or
+    /// null).
     #[arg(long)]
     json: bool,
 }
@@ -88,6 +91,8 @@ pub fn run(args: PlanArgs) -> Result<()> {
             "lights_peak_pdf": alone.lights_peak_pdf,
             "from": alone.from,
             "materials": alone.materials,
+            "map_peak_pdf": alone.map_peak_pdf,
+            "map_candidates": alone.map_candidates,
             "measured": guiding.light_choice.as_ref().map(|c| serde_json::json!({
                 "map_peak_pdf": c.map_peak_pdf,
                 "from": c.from,

@@ -25,8 +25,7 @@
 //! resumed render makes the same one. Both choices are unbiased; only the
 //! noise and the time differ.
 
-use super::{PathTracer, RayCounts, bsdf_alone};
-use crate::bsdf::Bxdf;
+use super::{PathTracer, RayCounts, bsdf_alone_materials};
 use crate::settings::{DirectStrategy, LightSampling};
 
 /// A material is a candidate for skipping light sampling when all its
@@ -135,15 +134,7 @@ pub fn decide(
     }
     let map_peak_pdf = tracer.lights().environment_map_peak_pdf()?;
     let from = ENV_PEAK_RATIO * map_peak_pdf;
-    let materials: Vec<String> = tracer
-        .scene
-        .materials
-        .iter()
-        .filter(|m| {
-            !m.bsdf.is_delta() && bsdf_alone(&m.bsdf, Some(from), || m.maps.perturbs_normal())
-        })
-        .map(|m| m.name.clone())
-        .collect();
+    let materials = bsdf_alone_materials(tracer.scene, Some(from));
     if materials.is_empty() {
         return None;
     }

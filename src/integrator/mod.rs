@@ -225,8 +225,20 @@ fn reflectance(b: &crate::bsdf::Bsdf) -> Vec3 {
 /// reflective surface as black.
 const MIN_SHADING_COS: f32 = 1e-2;
 
+/// The names of `scene`'s materials (their BSDFs before textures) whose
+/// bounces sample the BSDF alone when lobes peaking at `from` or higher do
+/// ([`bsdf_alone`]); none for `None`.
+fn bsdf_alone_materials(scene: &Scene, from: Option<f32>) -> Vec<String> {
+    scene
+        .materials
+        .iter()
+        .filter(|m| !m.bsdf.is_delta() && bsdf_alone(&m.bsdf, from, || m.maps.perturbs_normal()))
+        .map(|m| m.name.clone())
+        .collect()
+}
+
 /// Where bounces sample the BSDF alone, for `plan`
-/// ([`LIGHT_SAMPLING_PEAK_RATIO`]).
+/// ([`LIGHT_SAMPLING_PEAK_RATIO`], [`light_choice`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct BsdfAlone {
     /// The lights' density, when the uniform environment is the only light.
@@ -236,50 +248,81 @@ pub struct BsdfAlone {
     pub from: Option<f32>,
     /// The materials whose BSDF (before textures) skips it.
     pub materials: Vec<String>,
+    /// The environment map's highest density, when it is the only light
+    /// ([`Lights::environment_map_peak_pdf`]).
+    pub map_peak_pdf: Option<f32>,
+    /// Under it, the materials a pre-pass may let skip light sampling
+    /// ([`light_choice::ENV_PEAK_RATIO`]).
+    pub map_candidates: Vec<String>,
+    /// `--light-sampling`.
+    pub mode: crate::settings::LightSampling,
+    /// `--direct`.
+    pub direct: crate::settings::DirectStrategy,
 }
 
 impl BsdfAlone {
     /// Which bounces of `scene`, rendered with `settings`, skip light
-    /// sampling.
+    /// sampling (under an environment map, which may: a pre-pass decides).
     pub fn of(scene: &Scene, settings: &IntegratorSettings) -> Self {
         let lights = Lights::with_sampler(scene, settings.light_sampler);
         let from = bsdf_alone_from(&lights, settings);
-        let materials = scene
-            .materials
-            .iter()
-            .filter(|m| {
-                !m.bsdf.is_delta() && bsdf_alone(&m.bsdf, from, || m.maps.perturbs_normal())
-            })
-            .map(|m| m.name.clone())
-            .collect();
+        let map_peak_pdf = lights.environment_map_peak_pdf();
         BsdfAlone {
             lights_peak_pdf: lights.peak_pdf(),
             from,
-            materials,
+            materials: bsdf_alone_materials(scene, from),
+            map_peak_pdf,
+            map_candidates: bsdf_alone_materials(
+                scene,
+                map_peak_pdf.map(|p| light_choice::ENV_PEAK_RATIO * p),
+            ),
+            mode: settings.light_sampling,
+            direct: settings.direct,
         }
     }
 
     /// One line for `plan`.
     pub fn describe(&self) -> String {
+        use crate::settings::{DirectStrategy, LightSampling};
         let peak = self.lights_peak_pdf.unwrap_or(0.0);
+        let names = |v: &[String]| {
+            v.iter()
+                .map(|m| format!("`{m}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let infinite = self.lights_peak_pdf.is_some() || self.map_peak_pdf.is_some();
         match self.from {
+            _ if self.mode == LightSampling::Always => {
+                "light sampling: at every non-delta bounce (--light-sampling always)".to_string()
+            }
             Some(f) if self.materials.is_empty() => format!(
                 "light sampling: at every non-delta bounce (no material's lobes all peak at or above {f:.3} /sr, {LIGHT_SAMPLING_PEAK_RATIO} x the uniform sky's density)"
             ),
             Some(f) => format!(
                 "light sampling: skipped, BSDF sampling alone, where every lobe peaks at or above {f:.3} /sr ({LIGHT_SAMPLING_PEAK_RATIO} x the uniform sky's density, {peak:.3} /sr): {}",
-                self.materials
-                    .iter()
-                    .map(|m| format!("`{m}`"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
+                names(&self.materials)
             ),
-            None if self.lights_peak_pdf.is_some() => {
+            None if infinite && self.direct != DirectStrategy::Mis => {
                 "light sampling: at every non-delta bounce (direct light not combined by MIS)"
                     .to_string()
             }
-            None => "light sampling: at every non-delta bounce (the uniform environment is not the only light)"
-                .to_string(),
+            None => match self.map_peak_pdf {
+                Some(p) if self.map_candidates.is_empty() => format!(
+                    "light sampling: at every non-delta bounce (no material's lobes all peak at or above {:.3} /sr, {} x the environment map's highest density)",
+                    light_choice::ENV_PEAK_RATIO * p,
+                    light_choice::ENV_PEAK_RATIO
+                ),
+                Some(p) => format!(
+                    "light sampling: at every non-delta bounce here; {} (lobes peaking at or above {:.3} /sr, {} x the environment map's highest density) skip it where a pre-pass finds that pays, in an unguided render of at least {} spp",
+                    names(&self.map_candidates),
+                    light_choice::ENV_PEAK_RATIO * p,
+                    light_choice::ENV_PEAK_RATIO,
+                    light_choice::MIN_SPP
+                ),
+                None => "light sampling: at every non-delta bounce (neither the uniform environment nor an environment map is the only light)"
+                    .to_string(),
+            },
         }
     }
 }
