@@ -276,3 +276,27 @@ fn plan_names_the_candidates_and_what_the_pre_pass_chose() {
     assert!(none.contains("no material's lobes all peak"), "{none}");
     assert!(plan(&[GLOSSY_ENV, "--light-sampling", "always"]).contains("--light-sampling always"));
 }
+
+#[test]
+fn a_tracer_with_a_point_light_never_skips_light_sampling() {
+    // a bounce that skipped light sampling would lose the point light,
+    // which no BSDF sample finds: the setter refuses
+    use embertrace::accel::{self, Backend};
+    use embertrace::integrator::PathTracer;
+    use embertrace::light::PointLight;
+    use embertrace::math::Vec3;
+    let mut scene = embertrace::scene::Scene::load(Path::new(GLOSSY_ENV)).unwrap();
+    let accel = accel::build(Backend::Bvh, scene.soup(), Default::default()).unwrap();
+    {
+        let mut tracer = PathTracer::new(&scene, accel.as_ref(), Default::default());
+        tracer.set_bsdf_alone_from(Some(1.0));
+        assert_eq!(tracer.bsdf_alone_from(), Some(1.0));
+    }
+    scene
+        .point_lights
+        .push(PointLight::new(Vec3::new(0.0, 1.0, 0.0), Vec3::ONE));
+    let accel = accel::build(Backend::Bvh, scene.soup(), Default::default()).unwrap();
+    let mut tracer = PathTracer::new(&scene, accel.as_ref(), Default::default());
+    tracer.set_bsdf_alone_from(Some(1.0));
+    assert_eq!(tracer.bsdf_alone_from(), None);
+}

@@ -113,11 +113,12 @@ impl LightChoice {
 /// sample variance and the rays it traced (`auto` guiding's pre-pass,
 /// [`super::training`]); `every`, when given, is its result with light
 /// sampling at every bounce (the tracer's setting under an environment
-/// map, before this), already traced by guiding's `auto`. `None`, and the tracer untouched, unless the
-/// environment map is the only light, `--light-sampling` is `auto`,
-/// direct light is combined by MIS, the render has [`MIN_SPP`] samples or
-/// is progressive, and some material is a candidate. For unguided renders
-/// only.
+/// map, before this), already traced by guiding's `auto`.
+///
+/// `None`, and the tracer untouched, unless the environment map is the
+/// only light, `--light-sampling` is `auto`, direct light is combined by
+/// MIS, the render has [`MIN_SPP`] samples or is progressive, and some
+/// material is a candidate. For unguided renders only.
 pub fn decide(
     tracer: &mut PathTracer<'_>,
     spp: u32,

@@ -384,9 +384,11 @@ impl<'a> PathTracer<'a> {
     /// higher sample the BSDF alone (`None`: none does); set by
     /// [`light_choice::decide`] from its pre-pass. Unbiased for any
     /// value: MIS then weighs the light such a bounce's BSDF sample finds
-    /// by 1.
+    /// by 1. Ignored (none does) where a light cannot be found by BSDF
+    /// sampling (point, spot, directional and panel lights), whose light
+    /// such a bounce would lose.
     pub fn set_bsdf_alone_from(&mut self, from: Option<f32>) {
-        self.bsdf_alone_from = from;
+        self.bsdf_alone_from = from.filter(|_| !self.lights.has_unreachable());
     }
 
     /// The lights as the estimator samples them.

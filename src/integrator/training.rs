@@ -141,7 +141,8 @@ pub struct GuidingReport {
     /// ([`resume`]): no pre-pass, no training.
     pub from_checkpoint: bool,
     /// Where bounces skip light sampling, when a pre-pass decided it
-    /// ([`super::light_choice`]; run before the guiding's, unguided).
+    /// ([`super::light_choice`]; for an unguided render, after guiding's
+    /// decision).
     pub light_choice: Option<LightChoice>,
 }
 
