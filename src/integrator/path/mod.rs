@@ -416,7 +416,8 @@ impl<'a> PathTracer<'a> {
         let direct = self.settings.direct;
         if (EMITTERS || ENVIRONMENT) && (direct != DirectStrategy::Light || prev.delta) {
             let wi = lane.ray.d;
-            // the light's density is wanted only for an MIS weight
+            // the light's density is wanted only for an MIS weight, and
+            // only where light is found
             let weighs = direct == DirectStrategy::Mis && !prev.delta && prev.light_sampled;
             let (le, light_pdf) = match &its {
                 None if ENVIRONMENT && weighs => self.lights.environment_and_pdf(wi),
@@ -434,11 +435,17 @@ impl<'a> PathTracer<'a> {
                 {
                     (Vec3::ZERO, 0.0)
                 }
-                Some(n) if EMITTERS => (
-                    self.emitted(n),
-                    // the density light sampling had, from where it sampled
-                    self.lights.pdf_area(&prev.from, n.prim, &n.sp),
-                ),
+                Some(n) if EMITTERS => {
+                    let le = self.emitted(n);
+                    // the density light sampling had, from where it
+                    // sampled: only for an MIS weight of light found
+                    let pdf = if weighs && le != Vec3::ZERO {
+                        self.lights.pdf_area(&prev.from, n.prim, &n.sp)
+                    } else {
+                        0.0
+                    };
+                    (le, pdf)
+                }
                 _ => (Vec3::ZERO, 0.0),
             };
             if le != Vec3::ZERO {
