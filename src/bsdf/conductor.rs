@@ -67,21 +67,29 @@ impl Conductor {
 }
 
 impl Conductor {
+    /// The half vector of `(wo, wi)` and `|wo + wi|`, for a rough
+    /// conductor and both directions above the surface; `None` where the
+    /// BSDF is 0 there (smooth, below, or opposite directions).
+    #[inline]
+    fn half(&self, wo: Vec3, wi: Vec3) -> Option<(Vec3, f32)> {
+        if self.microfacet.is_smooth() || !(wo.z > 0.0 && wi.z > 0.0) {
+            return None;
+        }
+        let sum = wo + wi;
+        let len = sum.length();
+        (len > 0.0).then(|| (sum / len, len))
+    }
+
     /// [`Bxdf::eval`] and [`Bxdf::pdf`] at `(wo, wi)`, bit for bit, with
     /// the half vector, `D` and `wo`'s `Lambda` computed once: a BSDF
     /// sample needs both (the same steps in the same order as the two
     /// methods; `tests` compares them).
     #[inline]
     fn eval_and_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        if self.microfacet.is_smooth() || !(wo.z > 0.0 && wi.z > 0.0) {
+        let Some((h, len)) = self.half(wo, wi) else {
             return (Vec3::ZERO, 0.0);
-        }
-        let sum = wo + wi;
-        let len = sum.length();
-        if !(len > 0.0) {
-            return (Vec3::ZERO, 0.0);
-        }
-        let d = self.microfacet.d(sum / len);
+        };
+        let d = self.microfacet.d(h);
         if !(d > 0.0) {
             // pdf: G1 d / (4 wo.z) is 0, or NaN (then 0) for a NaN d
             return (Vec3::ZERO, 0.0);
@@ -98,18 +106,13 @@ impl Conductor {
 
 impl Bxdf for Conductor {
     fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        if self.microfacet.is_smooth() || !(wo.z > 0.0 && wi.z > 0.0) {
-            return Vec3::ZERO;
-        }
         // Every step is symmetric in wo and wi, bit for bit: wo . h = wi . h =
         // |wo + wi| / 2 (no cancellation in a dot product), and sums and
         // products in commuted order round alike.
-        let sum = wo + wi;
-        let len = sum.length();
-        if !(len > 0.0) {
+        let Some((h, len)) = self.half(wo, wi) else {
             return Vec3::ZERO;
-        }
-        let d = self.microfacet.d(sum / len);
+        };
+        let d = self.microfacet.d(h);
         if !(d > 0.0) {
             return Vec3::ZERO;
         }
@@ -119,15 +122,9 @@ impl Bxdf for Conductor {
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if self.microfacet.is_smooth() || !(wo.z > 0.0 && wi.z > 0.0) {
+        let Some((h, _)) = self.half(wo, wi) else {
             return 0.0;
-        }
-        let sum = wo + wi;
-        let len = sum.length();
-        if !(len > 0.0) {
-            return 0.0;
-        }
-        let h = sum / len;
+        };
         // D_wo(h) / (4 wo . h), with D_wo(h) = G1(wo) (wo . h) D(h) / wo.z
         let p = self.microfacet.g1(wo) * self.microfacet.d(h) / (4.0 * wo.z);
         if p.is_finite() { p } else { 0.0 }

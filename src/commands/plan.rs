@@ -95,7 +95,7 @@ pub fn run(args: PlanArgs) -> Result<()> {
             "map_candidates": alone.map_candidates,
             "measured": guiding.light_choice.as_ref().map(|c| serde_json::json!({
                 "map_peak_pdf": c.map_peak_pdf,
-                "from": c.from,
+                "from": c.from(),
                 "materials": c.materials,
                 "variance_ratio": c.variance_ratio,
                 "cost_ratio": c.cost_ratio,

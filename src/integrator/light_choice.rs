@@ -25,7 +25,7 @@
 //! resumed render makes the same one. Both choices are unbiased; only the
 //! noise and the time differ.
 
-use super::{PathTracer, RayCounts, bsdf_alone_materials};
+use super::{PathTracer, RayCounts, bsdf_alone_materials, quoted};
 use crate::settings::{DirectStrategy, LightSampling};
 
 /// A material is a candidate for skipping light sampling when all its
@@ -69,9 +69,6 @@ pub const MIN_SPP: u32 = 16;
 pub struct LightChoice {
     /// The environment map's highest density (`/sr`).
     pub map_peak_pdf: f32,
-    /// The lobe peak from which a bounce is a candidate for skipping:
-    /// [`ENV_PEAK_RATIO`] times `map_peak_pdf`.
-    pub from: f32,
     /// The candidate materials (their BSDFs before textures).
     pub materials: Vec<String>,
     /// The pre-pass's variance with the candidates skipping light
@@ -86,17 +83,20 @@ pub struct LightChoice {
 }
 
 impl LightChoice {
+    /// The lobe peak from which a bounce is a candidate for skipping:
+    /// [`ENV_PEAK_RATIO`] times `map_peak_pdf`.
+    pub fn from(&self) -> f32 {
+        ENV_PEAK_RATIO * self.map_peak_pdf
+    }
+
     /// One line for the log and `embertrace plan`.
     pub fn describe(&self) -> String {
-        let names = self
-            .materials
-            .iter()
-            .map(|m| format!("`{m}`"))
-            .collect::<Vec<_>>()
-            .join(", ");
         let measured = format!(
-            "with BSDF sampling alone at {names} (lobes peaking at or above {:.3} /sr, {ENV_PEAK_RATIO} x the map's highest density), a pre-pass measured {:.2}x the variance at {:.2}x the time per sample",
-            self.from, self.variance_ratio, self.cost_ratio
+            "with BSDF sampling alone at {} (lobes peaking at or above {:.3} /sr, {ENV_PEAK_RATIO} x the map's highest density), a pre-pass measured {:.2}x the variance at {:.2}x the time per sample",
+            quoted(&self.materials),
+            self.from(),
+            self.variance_ratio,
+            self.cost_ratio
         );
         if self.skip {
             format!("light sampling: skipped where the BSDF's lobes are narrow; {measured}")
@@ -139,10 +139,10 @@ pub fn decide(
     if materials.is_empty() {
         return None;
     }
-    let before = tracer.bsdf_alone_from();
     // under an environment map the tracer starts with light sampling
-    // everywhere (the uniform sky's rule does not apply)
-    debug_assert_eq!(before, None);
+    // everywhere (the uniform sky's rule does not apply), and is left so
+    // unless skipping pays
+    debug_assert_eq!(tracer.bsdf_alone_from(), None);
     let (every, every_rays) = every.unwrap_or_else(|| {
         tracer.set_bsdf_alone_from(None);
         prepass(tracer)
@@ -153,10 +153,9 @@ pub fn decide(
     let variance_ratio = if every > 0.0 { alone / every } else { 1.0 };
     let cost_ratio = cost(&alone_rays) / cost(&every_rays).max(1.0);
     let skip = variance_ratio * cost_ratio < SKIP_BELOW;
-    tracer.set_bsdf_alone_from(if skip { Some(from) } else { before });
+    tracer.set_bsdf_alone_from(skip.then_some(from));
     Some(LightChoice {
         map_peak_pdf,
-        from,
         materials,
         variance_ratio,
         cost_ratio,

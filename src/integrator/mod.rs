@@ -237,6 +237,15 @@ fn bsdf_alone_materials(scene: &Scene, from: Option<f32>) -> Vec<String> {
         .collect()
 }
 
+/// `names` as a list for a message: each in backticks, comma-separated.
+fn quoted(names: &[String]) -> String {
+    names
+        .iter()
+        .map(|m| format!("`{m}`"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// Where bounces sample the BSDF alone, for `plan`
 /// ([`LIGHT_SAMPLING_PEAK_RATIO`], [`light_choice`]).
 #[derive(Debug, Clone, PartialEq)]
@@ -285,12 +294,6 @@ impl BsdfAlone {
     pub fn describe(&self) -> String {
         use crate::settings::{DirectStrategy, LightSampling};
         let peak = self.lights_peak_pdf.unwrap_or(0.0);
-        let names = |v: &[String]| {
-            v.iter()
-                .map(|m| format!("`{m}`"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
         let infinite = self.lights_peak_pdf.is_some() || self.map_peak_pdf.is_some();
         match self.from {
             _ if self.mode == LightSampling::Always => {
@@ -301,7 +304,7 @@ impl BsdfAlone {
             ),
             Some(f) => format!(
                 "light sampling: skipped, BSDF sampling alone, where every lobe peaks at or above {f:.3} /sr ({LIGHT_SAMPLING_PEAK_RATIO} x the uniform sky's density, {peak:.3} /sr): {}",
-                names(&self.materials)
+                quoted(&self.materials)
             ),
             None if infinite && self.direct != DirectStrategy::Mis => {
                 "light sampling: at every non-delta bounce (direct light not combined by MIS)"
@@ -315,7 +318,7 @@ impl BsdfAlone {
                 ),
                 Some(p) => format!(
                     "light sampling: at every non-delta bounce here; {} (lobes peaking at or above {:.3} /sr, {} x the environment map's highest density) skip it where a pre-pass finds that pays, in an unguided render of at least {} spp",
-                    names(&self.map_candidates),
+                    quoted(&self.map_candidates),
                     light_choice::ENV_PEAK_RATIO * p,
                     light_choice::ENV_PEAK_RATIO,
                     light_choice::MIN_SPP

@@ -145,7 +145,7 @@ impl LightSamplingSummary {
         LightSamplingSummary {
             skip: c.skip,
             materials: c.materials.clone(),
-            from: c.from,
+            from: c.from(),
             variance_ratio: c.variance_ratio,
             cost_ratio: c.cost_ratio,
         }
