@@ -3,8 +3,9 @@
 //! number generator lives here (pbrt-v4, section A.5 and chapter 2; Shirley
 //! and Chiu's concentric map for the disk).
 
+use crate::math::trig::sin_cos_quarter;
 use crate::math::{Vec2, Vec3};
-use std::f32::consts::{FRAC_1_PI, FRAC_PI_2, FRAC_PI_4, PI};
+use std::f32::consts::{FRAC_1_PI, FRAC_PI_4, PI};
 
 pub mod bilinear;
 pub mod distribution;
@@ -12,17 +13,21 @@ pub use bilinear::{BilinearSample, PeriodicBilinear2D};
 pub use distribution::{PiecewiseConstant1D, PiecewiseConstant2D, Sample1D, Sample2D};
 
 /// Concentric map of the unit square to the unit disk (Shirley and Chiu 1997).
+///
+/// Written without a branch or a call (the angle is `pi/4` times a ratio
+/// in `[-1, 1]`, or `pi/2` less it, whose sine and cosine are the
+/// first's cosine and sine), so that [`square_to_cosine_hemisphere_lanes`]
+/// vectorises and gives the bits of this scalar form.
+#[inline(always)]
 pub fn square_to_concentric_disk(u: Vec2) -> Vec2 {
     let o = 2.0 * u - Vec2::ONE;
-    if o.x == 0.0 && o.y == 0.0 {
-        return Vec2::ZERO;
-    }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, FRAC_PI_4 * (o.y / o.x))
-    } else {
-        (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
-    };
-    r * Vec2::new(theta.cos(), theta.sin())
+    let wide = o.x.abs() > o.y.abs();
+    let (r, across) = if wide { (o.x, o.y) } else { (o.y, o.x) };
+    // the centre (r = 0) divides by 1 instead of 0 and scales by 0
+    let den = if r == 0.0 { 1.0 } else { r };
+    let (s, c) = sin_cos_quarter(FRAC_PI_4 * (across / den));
+    let (x, y) = if wide { (c, s) } else { (s, c) };
+    Vec2::new(r * x, r * y)
 }
 
 /// Density of [`square_to_concentric_disk`] with respect to area.
@@ -37,10 +42,27 @@ pub fn square_to_concentric_disk_pdf(p: Vec2) -> f32 {
 /// Cosine-weighted direction on the hemisphere around +z (Malley's method).
 /// The result has `z >= 0`; `z == 0` only on the disk's rim, where the pdf is 0
 /// and callers must reject the sample.
+#[inline(always)]
 pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
     let d = square_to_concentric_disk(u);
     let z = (1.0 - d.length_squared()).max(0.0).sqrt();
     Vec3::new(d.x, d.y, z)
+}
+
+/// [`square_to_cosine_hemisphere`] of every lane's `(u[0][k], u[1][k])`,
+/// into `(x, y, z)`: one loop without a branch, which the compiler turns
+/// into vector code for the instruction set the caller was compiled for,
+/// each lane the same bits as the scalar call.
+#[inline(always)]
+pub fn square_to_cosine_hemisphere_lanes<const N: usize>(u: &[[f32; N]; 2]) -> [[f32; N]; 3] {
+    let mut w = [[0.0; N]; 3];
+    for k in 0..N {
+        let v = square_to_cosine_hemisphere(Vec2::new(u[0][k], u[1][k]));
+        w[0][k] = v.x;
+        w[1][k] = v.y;
+        w[2][k] = v.z;
+    }
+    w
 }
 
 /// Density of [`square_to_cosine_hemisphere`] with respect to solid angle: `cos / pi`.

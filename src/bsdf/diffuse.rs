@@ -42,7 +42,17 @@ impl Diffuse {
         if wo.z <= 0.0 {
             return None;
         }
-        let wi = square_to_cosine_hemisphere(u);
+        self.sample_warped(wo, square_to_cosine_hemisphere(u))
+    }
+
+    /// [`Diffuse::sample`] given the cosine-weighted direction `wi` that
+    /// its numbers warp to (the kernels warp a batch's at once,
+    /// [`crate::sampling::square_to_cosine_hemisphere_lanes`]).
+    #[inline]
+    pub fn sample_warped(&self, wo: Vec3, wi: Vec3) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
         let pdf = square_to_cosine_hemisphere_pdf(wi);
         (pdf > 0.0).then(|| BsdfSample {
             wi,

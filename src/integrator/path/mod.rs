@@ -22,10 +22,10 @@
 
 use super::{PathTracer, RayCounts};
 use crate::accel::{Coherence, Hit};
-use crate::bsdf::{Bsdf, Bxdf, Diffuse, MetallicRoughness, Phong};
+use crate::bsdf::{Bsdf, BsdfSample, Bxdf, Diffuse, MetallicRoughness, Phong};
 use crate::math::{Frame, Ray, SurfacePoint, Vec2, Vec3, gamma, spawn_ray};
 use crate::sampler::Sampler;
-use crate::sampling::power_heuristic;
+use crate::sampling::{power_heuristic, square_to_cosine_hemisphere_lanes};
 use crate::scene::EmissionRole;
 use crate::scene::maps::{shadowing_alpha2, shadowing_g};
 use crate::settings::{DirectStrategy, Roulette};
@@ -133,6 +133,11 @@ pub(super) struct Interaction {
 pub(super) trait KernelBsdf: Bxdf + Copy {
     /// The BSDF of material `m` at `its`.
     fn at(tracer: &PathTracer<'_>, its: &Interaction, m: usize) -> Self;
+
+    /// The BSDF's sample for the numbers `u`, given `cosine`, the
+    /// cosine-weighted direction they warp to (which a Lambertian lobe
+    /// takes as it is, the others ignore).
+    fn sample_given(&self, wo: Vec3, u: Vec2, cosine: Vec3) -> Option<BsdfSample>;
 }
 
 impl KernelBsdf for Diffuse {
@@ -141,6 +146,11 @@ impl KernelBsdf for Diffuse {
         Diffuse {
             albedo: tracer.albedo[m],
         }
+    }
+
+    #[inline(always)]
+    fn sample_given(&self, wo: Vec3, _: Vec2, cosine: Vec3) -> Option<BsdfSample> {
+        self.sample_warped(wo, cosine)
     }
 }
 
@@ -172,6 +182,14 @@ impl KernelBsdf for Bsdf {
         };
         material.maps.apply(&mut bsdf, uv);
         bsdf
+    }
+
+    #[inline(always)]
+    fn sample_given(&self, wo: Vec3, u: Vec2, cosine: Vec3) -> Option<BsdfSample> {
+        match self {
+            Bsdf::Diffuse(d) => d.sample_warped(wo, cosine),
+            b => b.sample(wo, u),
+        }
     }
 }
 
@@ -360,10 +378,22 @@ impl<'a> PathTracer<'a> {
             // --- direct lighting: light sampling, shadow rays in batches ---
             self.sample_lights::<B, DELTA, SHAPES>(lanes, &shade, rays);
 
-            // --- BSDF sampling: each live path's next ray ---
+            // --- BSDF sampling: each live path's next ray; the numbers'
+            // cosine-weighted warp for every lane at once (a Lambertian
+            // lobe's sample) ---
+            let mut u = [[0.5; BATCH]; 2];
+            for (i, (lane, sh)) in lanes.iter_mut().zip(&shade).enumerate() {
+                if sh.is_some() {
+                    let v = lane.sampler.next_2d();
+                    (u[0][i], u[1][i]) = (v.x, v.y);
+                }
+            }
+            let cosine = square_to_cosine_hemisphere_lanes(&u);
             for (i, (lane, sh)) in lanes.iter_mut().zip(shade.iter_mut()).enumerate() {
                 if let Some(s) = sh {
-                    self.scatter::<B, MATERIALS, DELTA, SHAPES>(lane, i, s);
+                    let u = Vec2::new(u[0][i], u[1][i]);
+                    let cosine = Vec3::new(cosine[0][i], cosine[1][i], cosine[2][i]);
+                    self.scatter::<B, MATERIALS, DELTA, SHAPES>(lane, i, s, u, cosine);
                     *sh = None;
                 }
             }
@@ -565,19 +595,21 @@ impl<'a> PathTracer<'a> {
         }
     }
 
-    /// BSDF sampling at `sh`: the lane's next ray and throughput, or the
-    /// end of its path.
+    /// BSDF sampling at `sh` with the lane's numbers `u` (and `cosine`,
+    /// their cosine-weighted warp): the lane's next ray and throughput, or
+    /// the end of its path.
     #[inline(always)]
     fn scatter<B: KernelBsdf, const MATERIALS: bool, const DELTA: bool, const SHAPES: bool>(
         &self,
         lane: &mut Lane,
         index: usize,
         sh: &Shade<B>,
+        u: Vec2,
+        cosine: Vec3,
     ) {
         let its = &sh.its;
-        let u = lane.sampler.next_2d();
         let bs = match sh.guide {
-            None => sh.bsdf.sample(sh.wo_local, u),
+            None => sh.bsdf.sample_given(sh.wo_local, u, cosine),
             Some(leaf) => self.guided_sample(sh, leaf, u),
         };
         let Some(bs) = bs else {
