@@ -257,6 +257,56 @@ mod tests {
     const EXTREMES: [f32; 5] = [0.0, 1.4e-45, 0.5, 1.0 - 5.96e-8, 1.0];
 
     #[test]
+    fn the_lanes_warp_gives_each_lane_the_scalar_bits() {
+        // a grid, the square's edges and centre, and the diagonals where
+        // the concentric map changes branch
+        let mut points: Vec<Vec2> = (0..64 * 64)
+            .map(|k| Vec2::new((k % 64) as f32 / 63.0, (k / 64) as f32 / 63.0))
+            .collect();
+        for &a in &EXTREMES {
+            for &b in &EXTREMES {
+                points.push(Vec2::new(a, b));
+            }
+        }
+        points.extend((0..256).map(|k| Vec2::splat(k as f32 / 255.0)));
+        points.extend((0..256).map(|k| Vec2::new(k as f32 / 255.0, 1.0 - k as f32 / 255.0)));
+        for chunk in points.chunks(16) {
+            let mut u = [[0.25; 16]; 2];
+            for (k, p) in chunk.iter().enumerate() {
+                (u[0][k], u[1][k]) = (p.x, p.y);
+            }
+            let w = square_to_cosine_hemisphere_lanes(&u);
+            for (k, p) in chunk.iter().enumerate() {
+                let want = square_to_cosine_hemisphere(*p);
+                let got = Vec3::new(w[0][k], w[1][k], w[2][k]);
+                assert_eq!(
+                    got.to_array().map(f32::to_bits),
+                    want.to_array().map(f32::to_bits),
+                    "{p}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_concentric_map_keeps_the_disk_and_the_centre() {
+        assert_eq!(square_to_concentric_disk(Vec2::splat(0.5)), Vec2::ZERO);
+        for k in 0..=64 {
+            let t = k as f32 / 64.0;
+            for u in [
+                Vec2::new(t, 0.0),
+                Vec2::new(0.0, t),
+                Vec2::new(t, 1.0),
+                Vec2::new(1.0, t),
+            ] {
+                // the square's edge lands on the unit circle
+                let r = square_to_concentric_disk(u).length();
+                assert!((r - 1.0).abs() < 1e-6, "{u}: radius {r}");
+            }
+        }
+    }
+
+    #[test]
     fn extreme_numbers_give_finite_unit_directions() {
         for &a in &EXTREMES {
             for &b in &EXTREMES {
