@@ -80,6 +80,26 @@ impl Conductor {
         (len > 0.0).then(|| (sum / len, len))
     }
 
+    /// The sample [`Bxdf::sample`] makes of the visible normal `h` (which
+    /// [`Microfacet::sample_visible`] or, for a batch's lanes,
+    /// [`crate::bsdf::microfacet::ggx_visible_normals_lanes`] and
+    /// [`Microfacet::visible_normal_from`] gave), for `wo.z > 0`.
+    #[inline]
+    pub fn sample_at_normal(&self, wo: Vec3, h: Vec3) -> Option<BsdfSample> {
+        let wi = reflect(wo, h);
+        if !(wi.z > 0.0) {
+            return None;
+        }
+        let (f, pdf) = self.eval_and_pdf(wo, wi);
+        BsdfSample {
+            wi,
+            f,
+            pdf,
+            delta: false,
+        }
+        .checked()
+    }
+
     /// [`Bxdf::eval`] and [`Bxdf::pdf`] at `(wo, wi)`, bit for bit, with
     /// the half vector, `D` and `wo`'s `Lambda` computed once: a BSDF
     /// sample needs both (the same steps in the same order as the two
@@ -138,18 +158,7 @@ impl Bxdf for Conductor {
             return specular_reflection(wo, self.fresnel(wo.z), 1.0);
         }
         let h = self.microfacet.sample_visible(wo, u)?;
-        let wi = reflect(wo, h);
-        if !(wi.z > 0.0) {
-            return None;
-        }
-        let (f, pdf) = self.eval_and_pdf(wo, wi);
-        BsdfSample {
-            wi,
-            f,
-            pdf,
-            delta: false,
-        }
-        .checked()
+        self.sample_at_normal(wo, h)
     }
 
     fn is_delta(&self) -> bool {

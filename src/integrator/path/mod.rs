@@ -22,7 +22,7 @@
 
 use super::{PathTracer, RayCounts};
 use crate::accel::{Coherence, Hit};
-use crate::bsdf::{Bsdf, BsdfSample, Bxdf, Diffuse, MetallicRoughness, Phong};
+use crate::bsdf::{Bsdf, Bxdf, Diffuse};
 use crate::math::{Frame, Ray, SurfacePoint, Vec2, Vec3, gamma, spawn_ray};
 use crate::sampler::Sampler;
 use crate::sampling::{power_heuristic, square_to_cosine_hemisphere_lanes};
@@ -33,8 +33,11 @@ use std::marker::PhantomData;
 
 mod direct;
 mod guided;
+mod kernel_bsdf;
 pub use guided::{GuideVertex, take_recorded};
 use guided::{adjoint_roulette, record};
+use kernel_bsdf::KernelBsdf;
+use kernel_bsdf::Warped;
 
 /// Paths traced together: a 4 x 4 block of pixels, the width of Embree's
 /// widest packet.
@@ -125,72 +128,6 @@ pub(super) struct Interaction {
     /// Barycentrics of the hit (triangles).
     pub(super) u: f32,
     pub(super) v: f32,
-}
-
-/// A BSDF as a kernel evaluates it: the diffuse-only kernels read a
-/// Lambertian from the per-material albedo table, the others dispatch on
-/// the material (with its texture).
-pub(super) trait KernelBsdf: Bxdf + Copy {
-    /// The BSDF of material `m` at `its`.
-    fn at(tracer: &PathTracer<'_>, its: &Interaction, m: usize) -> Self;
-
-    /// The BSDF's sample for the numbers `u`, given `cosine`, the
-    /// cosine-weighted direction they warp to (which a Lambertian lobe
-    /// takes as it is, the others ignore).
-    fn sample_given(&self, wo: Vec3, u: Vec2, cosine: Vec3) -> Option<BsdfSample>;
-}
-
-impl KernelBsdf for Diffuse {
-    #[inline]
-    fn at(tracer: &PathTracer<'_>, _: &Interaction, m: usize) -> Self {
-        Diffuse {
-            albedo: tracer.albedo[m],
-        }
-    }
-
-    #[inline(always)]
-    fn sample_given(&self, wo: Vec3, _: Vec2, cosine: Vec3) -> Option<BsdfSample> {
-        self.sample_warped(wo, cosine)
-    }
-}
-
-impl KernelBsdf for Bsdf {
-    #[inline]
-    fn at(tracer: &PathTracer<'_>, its: &Interaction, m: usize) -> Self {
-        let material = &tracer.scene.materials[m];
-        if material.texture.is_none() && !material.maps.textures_bsdf() {
-            return material.bsdf;
-        }
-        let uv = tracer.scene.uv(its.prim, &its.sp, its.u, its.v);
-        let mut bsdf = match &material.texture {
-            None => material.bsdf,
-            Some(t) => {
-                let albedo = t.eval(uv).clamp(Vec3::ZERO, Vec3::ONE);
-                match &material.bsdf {
-                    Bsdf::Plastic(p) => Bsdf::Plastic(p.with_diffuse(albedo)),
-                    Bsdf::Phong(p) => Bsdf::Phong(Phong {
-                        diffuse: albedo,
-                        ..*p
-                    }),
-                    Bsdf::MetallicRoughness(m) => Bsdf::MetallicRoughness(MetallicRoughness {
-                        base_color: albedo,
-                        ..*m
-                    }),
-                    _ => Bsdf::Diffuse(Diffuse { albedo }),
-                }
-            }
-        };
-        material.maps.apply(&mut bsdf, uv);
-        bsdf
-    }
-
-    #[inline(always)]
-    fn sample_given(&self, wo: Vec3, u: Vec2, cosine: Vec3) -> Option<BsdfSample> {
-        match self {
-            Bsdf::Diffuse(d) => d.sample_warped(wo, cosine),
-            b => b.sample(wo, u),
-        }
-    }
 }
 
 /// A lane's shading point at the current bounce.
@@ -389,11 +326,19 @@ impl<'a> PathTracer<'a> {
                 }
             }
             let cosine = square_to_cosine_hemisphere_lanes(&u);
+            let ggx = if MATERIALS {
+                self.ggx_normals(&shade, &u)
+            } else {
+                None
+            };
             for (i, (lane, sh)) in lanes.iter_mut().zip(shade.iter_mut()).enumerate() {
                 if let Some(s) = sh {
                     let u = Vec2::new(u[0][i], u[1][i]);
-                    let cosine = Vec3::new(cosine[0][i], cosine[1][i], cosine[2][i]);
-                    self.scatter::<B, MATERIALS, DELTA, SHAPES>(lane, i, s, u, cosine);
+                    let warped = Warped {
+                        cosine: Vec3::new(cosine[0][i], cosine[1][i], cosine[2][i]),
+                        ggx: ggx.map_or(Vec3::ZERO, |h| Vec3::new(h[0][i], h[1][i], h[2][i])),
+                    };
+                    self.scatter::<B, MATERIALS, DELTA, SHAPES>(lane, i, s, u, &warped);
                     *sh = None;
                 }
             }
@@ -595,9 +540,9 @@ impl<'a> PathTracer<'a> {
         }
     }
 
-    /// BSDF sampling at `sh` with the lane's numbers `u` (and `cosine`,
-    /// their cosine-weighted warp): the lane's next ray and throughput, or
-    /// the end of its path.
+    /// BSDF sampling at `sh` with the lane's numbers `u` (and `warped`,
+    /// what they warp to): the lane's next ray and throughput, or the end
+    /// of its path.
     #[inline(always)]
     fn scatter<B: KernelBsdf, const MATERIALS: bool, const DELTA: bool, const SHAPES: bool>(
         &self,
@@ -605,11 +550,11 @@ impl<'a> PathTracer<'a> {
         index: usize,
         sh: &Shade<B>,
         u: Vec2,
-        cosine: Vec3,
+        warped: &Warped,
     ) {
         let its = &sh.its;
         let bs = match sh.guide {
-            None => sh.bsdf.sample_given(sh.wo_local, u, cosine),
+            None => sh.bsdf.sample_given(sh.wo_local, u, warped),
             Some(leaf) => self.guided_sample(sh, leaf, u),
         };
         let Some(bs) = bs else {
