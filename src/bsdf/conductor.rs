@@ -27,6 +27,7 @@ use super::microfacet::Microfacet;
 use super::mirror::specular_reflection;
 use super::{BsdfSample, Bxdf};
 use crate::math::{Vec2, Vec3};
+use std::f32::consts::PI;
 
 /// A rough (or smooth) conductor.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -184,6 +185,134 @@ impl Bxdf for Conductor {
     }
 }
 
+/// The parameters of a batch's rough GGX conductors, one lane each
+/// ([`samples_at_normals_lanes`]); a lane without one holds any finite
+/// values.
+#[derive(Debug, Clone, Copy)]
+pub struct ConductorLanes<const N: usize> {
+    /// [`Microfacet::alpha`].
+    pub alpha: [f32; N],
+    /// [`Conductor::eta`], channel by channel.
+    pub eta: [[f32; N]; 3],
+    /// [`Conductor::k`], channel by channel.
+    pub k: [[f32; N]; 3],
+    /// The masking is [`super::Masking::Separable`] (else height-correlated).
+    pub separable: [bool; N],
+}
+
+/// What [`Conductor::sample_at_normal`] computes before its checks, for
+/// every lane: `wi`, `f` and `pdf` (meaningful where `wi.z > 0`).
+#[derive(Debug, Clone, Copy)]
+pub struct LaneSamples<const N: usize> {
+    /// The reflected direction.
+    pub wi: [[f32; N]; 3],
+    /// The BSDF's value there.
+    pub f: [[f32; N]; 3],
+    /// Its density.
+    pub pdf: [f32; N],
+}
+
+/// [`Conductor::sample_at_normal`] of every lane `j` of a batch whose
+/// conductors are rough GGX ones (`c`), seen from `wo[..][j]`, for the
+/// visible normal `h[..][j]` (issue 37). One loop without a branch or a
+/// call, which the compiler turns into vector code for the caller's
+/// instruction set; each lane computes the scalar path's operations in
+/// the same order (`eval_and_pdf`, `Microfacet::d`, `lambda`,
+/// `fr_conductor`, one channel at a time), so each gets its bits
+/// (`tests` compares them).
+#[inline(always)]
+pub fn samples_at_normals_lanes<const N: usize>(
+    c: &ConductorLanes<N>,
+    wo: &[[f32; N]; 3],
+    h: &[[f32; N]; 3],
+) -> LaneSamples<N> {
+    let mut out = LaneSamples {
+        wi: [[0.0; N]; 3],
+        f: [[0.0; N]; 3],
+        pdf: [0.0; N],
+    };
+    for j in 0..N {
+        let wo = Vec3::new(wo[0][j], wo[1][j], wo[2][j]);
+        let wi = reflect(wo, Vec3::new(h[0][j], h[1][j], h[2][j]));
+        (out.wi[0][j], out.wi[1][j], out.wi[2][j]) = (wi.x, wi.y, wi.z);
+        // the half vector (`half`; both directions above, by the caller's
+        // checks)
+        let sum = wo + wi;
+        let len = sum.length();
+        let hh = sum / len;
+        // D (GGX), 0 below the horizon
+        let a = c.alpha[j];
+        let a2 = a * a;
+        let sin2 = hh.x * hh.x + hh.y * hh.y;
+        let cos2 = hh.z * hh.z;
+        let t = sin2 + a2 * cos2;
+        let d = if hh.z > 0.0 { a2 / (PI * t * t) } else { 0.0 };
+        let (lo, li) = (lambda_ggx(a, wo), lambda_ggx(a, wi));
+        let g1 = 1.0 / (1.0 + lo);
+        let g = if c.separable[j] {
+            g1 * (1.0 / (1.0 + li))
+        } else {
+            1.0 / (1.0 + (lo + li))
+        };
+        let scale = d * g / (4.0 * (wo.z * wi.z));
+        let f: [f32; 3] =
+            std::array::from_fn(|ch| fresnel_channel(0.5 * len, c.eta[ch][j], c.k[ch][j]) * scale);
+        let p = g1 * d / (4.0 * wo.z);
+        // zero where `half` or `D` gives none, or a value is not finite
+        let some = len > 0.0 && d > 0.0;
+        let f_ok = some && f.iter().all(|v| v.is_finite());
+        for (out, f) in out.f.iter_mut().zip(f) {
+            out[j] = if f_ok { f } else { 0.0 };
+        }
+        out.pdf[j] = if some && p.is_finite() { p } else { 0.0 };
+    }
+    out
+}
+
+/// [`Microfacet::lambda`] for GGX, with selects for its early returns.
+#[inline(always)]
+fn lambda_ggx(alpha: f32, w: Vec3) -> f32 {
+    let sin2 = w.x * w.x + w.y * w.y;
+    let cos2 = w.z * w.z;
+    let x = alpha * alpha * (sin2 / cos2);
+    let l = x / (2.0 * (1.0 + (1.0 + x).sqrt()));
+    if sin2 == 0.0 {
+        0.0
+    } else if cos2 == 0.0 || x.is_infinite() {
+        f32::INFINITY
+    } else {
+        l
+    }
+}
+
+/// One channel of [`fr_conductor`], its operations in its order.
+#[inline(always)]
+fn fresnel_channel(cos_theta_i: f32, eta: f32, k: f32) -> f32 {
+    let cos = cos_theta_i.clamp(0.0, 1.0);
+    let cos2 = cos * cos;
+    let sin2 = 1.0 - cos2;
+    let diff = (eta * eta - k * k - 1.0) + cos2;
+    let ek = eta * k;
+    let sum = (diff * diff + 4.0 * ek * ek).sqrt();
+    let a2 = if diff >= 0.0 {
+        0.5 * (sum + diff)
+    } else {
+        2.0 * ek * ek / (sum - diff)
+    };
+    let a = a2.sqrt();
+    let s1 = sum + cos2;
+    let s2 = 2.0 * cos * a;
+    let r_s = if s1 + s2 > 0.0 {
+        (s1 - s2) / (s1 + s2)
+    } else {
+        1.0
+    };
+    let t = sum * cos2 + sin2 * sin2;
+    let u = s2 * sin2;
+    let r_p = r_s * (t - u) / (t + u);
+    0.5 * (r_s + r_p)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -269,5 +398,87 @@ mod tests {
             microfacet: Microfacet::new(Distribution::Ggx, 1.5),
         };
         assert_eq!(rough.lobe_peak_pdf(), 0.0);
+    }
+
+    #[test]
+    fn the_lanes_samples_are_each_lanes_scalar_sample() {
+        use crate::bsdf::microfacet::ggx_visible_normals_lanes;
+        use crate::sampler::Sampler;
+        use crate::sampling::square_to_uniform_sphere;
+        let mut s = Sampler::new(9, 8, 7);
+        // metals of the usual tables, a dielectric-like one (k = 0, the
+        // a^2 branch below zero) and a grazing-friendly eta near 1
+        let metals = [
+            (Vec3::new(0.2, 0.92, 1.1), Vec3::new(3.9, 2.45, 2.14)),
+            (Vec3::new(0.14, 0.37, 1.44), Vec3::new(4.2, 2.6, 2.3)),
+            (Vec3::new(1.5, 1.5, 1.5), Vec3::ZERO),
+            (Vec3::new(1.0, 1.02, 0.98), Vec3::new(0.0, 0.01, 0.3)),
+        ];
+        let mut compared = 0;
+        for round in 0..300 {
+            let mut c = ConductorLanes {
+                alpha: [0.0; 16],
+                eta: [[0.0; 16]; 3],
+                k: [[0.0; 16]; 3],
+                separable: [false; 16],
+            };
+            let (mut wo, mut u) = ([[0.0; 16]; 3], [[0.0; 16]; 2]);
+            let mut scalar = Vec::new();
+            for j in 0..16 {
+                let (eta, k) = metals[(j + round) % 4];
+                let alpha = [0.002, 0.05, 0.3, 1.0, 2.5][(j + 3 * round) % 5];
+                let masking = [Masking::HeightCorrelated, Masking::Separable][(j + round / 2) % 2];
+                let m = Conductor {
+                    eta,
+                    k,
+                    microfacet: Microfacet {
+                        distribution: Distribution::Ggx,
+                        alpha,
+                        masking,
+                    },
+                };
+                c.alpha[j] = alpha;
+                c.separable[j] = masking == Masking::Separable;
+                for ch in 0..3 {
+                    (c.eta[ch][j], c.k[ch][j]) = (eta[ch], k[ch]);
+                }
+                let w = square_to_uniform_sphere(s.next_2d());
+                (wo[0][j], wo[1][j], wo[2][j]) = (w.x, w.y, w.z);
+                let v = s.next_2d();
+                (u[0][j], u[1][j]) = (v.x, v.y);
+                scalar.push((m, w, v));
+            }
+            let h = ggx_visible_normals_lanes(&c.alpha, &wo, &u);
+            let got = samples_at_normals_lanes(&c, &wo, &h);
+            for (j, (m, w, v)) in scalar.into_iter().enumerate() {
+                let want = m.sample(w, v);
+                let lane = m
+                    .microfacet
+                    .visible_normal_from(w, Vec3::new(h[0][j], h[1][j], h[2][j]))
+                    .and_then(|_| {
+                        let wi = Vec3::new(got.wi[0][j], got.wi[1][j], got.wi[2][j]);
+                        (wi.z > 0.0).then_some(())?;
+                        BsdfSample {
+                            wi,
+                            f: Vec3::new(got.f[0][j], got.f[1][j], got.f[2][j]),
+                            pdf: got.pdf[j],
+                            delta: false,
+                        }
+                        .checked()
+                    });
+                let bits = |b: Option<BsdfSample>| {
+                    b.map(|b| {
+                        (
+                            b.wi.to_array().map(f32::to_bits),
+                            b.f.to_array().map(f32::to_bits),
+                            b.pdf.to_bits(),
+                        )
+                    })
+                };
+                compared += usize::from(want.is_some());
+                assert_eq!(bits(lane), bits(want), "{m:?} from {w}, u {v}");
+            }
+        }
+        assert!(compared > 1500, "only {compared} samples compared");
     }
 }

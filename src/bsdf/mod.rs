@@ -54,7 +54,7 @@ mod plastic;
 mod rough_glass;
 mod thin_glass;
 
-pub use conductor::Conductor;
+pub use conductor::{Conductor, ConductorLanes, LaneSamples, samples_at_normals_lanes};
 pub use diffuse::Diffuse;
 pub use glass::Glass;
 pub use metallic_roughness::MetallicRoughness;

@@ -5,7 +5,10 @@
 
 use super::{BATCH, Interaction, Shade};
 use crate::bsdf::microfacet::ggx_visible_normals_lanes;
-use crate::bsdf::{Bsdf, BsdfSample, Bxdf, Diffuse, Distribution, MetallicRoughness, Phong};
+use crate::bsdf::{
+    Bsdf, BsdfSample, Bxdf, Conductor, ConductorLanes, Diffuse, Distribution, LaneSamples, Masking,
+    MetallicRoughness, Phong, samples_at_normals_lanes,
+};
 use crate::integrator::PathTracer;
 use crate::math::{Vec2, Vec3};
 
@@ -21,9 +24,9 @@ pub(super) trait KernelBsdf: Bxdf + Copy {
     /// conductor take as they are, the others ignore).
     fn sample_given(&self, wo: Vec3, u: Vec2, warped: &Warped) -> Option<BsdfSample>;
 
-    /// The roughness of a rough GGX conductor, whose visible normal the
-    /// kernel samples across the batch ([`Warped::ggx`]).
-    fn ggx_alpha(&self) -> Option<f32>;
+    /// A rough GGX conductor, whose sample the kernel computes across the
+    /// batch ([`Warped::ggx`]).
+    fn ggx_conductor(&self) -> Option<&Conductor>;
 }
 
 /// A lane's BSDF numbers as the kernel warps them for every lane at once
@@ -34,10 +37,37 @@ pub(super) struct Warped {
     /// The cosine-weighted direction
     /// ([`crate::sampling::square_to_cosine_hemisphere`]).
     pub(super) cosine: Vec3,
-    /// The GGX visible normal for [`KernelBsdf::ggx_alpha`] and the
-    /// lane's `wo` (unchecked; zero where the lane has no such conductor).
+    /// The GGX visible normal for [`KernelBsdf::ggx_conductor`] and the
+    /// lane's `wo` (unchecked; zero where the lane has no such conductor),
+    /// and the conductor's `wi`, `f` and `pdf` for it (before the checks
+    /// of [`Conductor::sample_at_normal`]).
     pub(super) ggx: Vec3,
+    pub(super) wi: Vec3,
+    pub(super) f: Vec3,
+    pub(super) pdf: f32,
 }
+
+impl Warped {
+    /// Lane `j` of the batch's warps.
+    #[inline(always)]
+    pub(super) fn lane(cosine: &[[f32; BATCH]; 3], ggx: Option<&GgxLanes>, j: usize) -> Self {
+        let v = |a: &[[f32; BATCH]; 3]| Vec3::new(a[0][j], a[1][j], a[2][j]);
+        let (ggx, wi, f, pdf) = match ggx {
+            Some((h, s)) => (v(h), v(&s.wi), v(&s.f), s.pdf[j]),
+            None => (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0),
+        };
+        Warped {
+            cosine: v(cosine),
+            ggx,
+            wi,
+            f,
+            pdf,
+        }
+    }
+}
+
+/// The rough GGX conductors' visible normals and samples of a batch.
+pub(super) type GgxLanes = ([[f32; BATCH]; 3], LaneSamples<BATCH>);
 
 impl KernelBsdf for Diffuse {
     #[inline]
@@ -53,7 +83,7 @@ impl KernelBsdf for Diffuse {
     }
 
     #[inline(always)]
-    fn ggx_alpha(&self) -> Option<f32> {
+    fn ggx_conductor(&self) -> Option<&Conductor> {
         None
     }
 }
@@ -92,21 +122,31 @@ impl KernelBsdf for Bsdf {
     fn sample_given(&self, wo: Vec3, u: Vec2, warped: &Warped) -> Option<BsdfSample> {
         match self {
             Bsdf::Diffuse(d) => d.sample_warped(wo, warped.cosine),
-            Bsdf::Conductor(c) if self.ggx_alpha().is_some() => {
-                let h = c.microfacet.visible_normal_from(wo, warped.ggx)?;
-                c.sample_at_normal(wo, h)
+            Bsdf::Conductor(c) if self.ggx_conductor().is_some() => {
+                // the checks of `sample_visible` and `sample_at_normal`
+                c.microfacet.visible_normal_from(wo, warped.ggx)?;
+                if !(warped.wi.z > 0.0) {
+                    return None;
+                }
+                BsdfSample {
+                    wi: warped.wi,
+                    f: warped.f,
+                    pdf: warped.pdf,
+                    delta: false,
+                }
+                .checked()
             }
             b => b.sample(wo, u),
         }
     }
 
     #[inline(always)]
-    fn ggx_alpha(&self) -> Option<f32> {
+    fn ggx_conductor(&self) -> Option<&Conductor> {
         match self {
             Bsdf::Conductor(c)
                 if c.microfacet.distribution == Distribution::Ggx && !c.microfacet.is_smooth() =>
             {
-                Some(c.microfacet.alpha)
+                Some(c)
             }
             _ => None,
         }
@@ -114,28 +154,41 @@ impl KernelBsdf for Bsdf {
 }
 
 impl PathTracer<'_> {
-    /// The GGX visible normals of the lanes whose unguided BSDF is a rough
-    /// GGX conductor ([`KernelBsdf::ggx_alpha`]), for their numbers `u`;
-    /// `None` when no lane has one.
+    /// The GGX visible normals and the samples of the lanes whose unguided
+    /// BSDF is a rough GGX conductor ([`KernelBsdf::ggx_conductor`]), for
+    /// their numbers `u`; `None` when no lane has one.
     #[inline(always)]
-    pub(super) fn ggx_normals<B: KernelBsdf>(
+    pub(super) fn ggx_samples<B: KernelBsdf>(
         &self,
         shade: &[Option<Shade<B>>; BATCH],
         u: &[[f32; BATCH]; 2],
-    ) -> Option<[[f32; BATCH]; 3]> {
-        let mut alpha = [1.0; BATCH];
+    ) -> Option<GgxLanes> {
+        let mut c = ConductorLanes {
+            alpha: [1.0; BATCH],
+            eta: [[1.0; BATCH]; 3],
+            k: [[0.0; BATCH]; 3],
+            separable: [false; BATCH],
+        };
         let mut wo = [[0.0; BATCH], [0.0; BATCH], [1.0; BATCH]];
         let mut any = false;
-        for (k, sh) in shade.iter().enumerate() {
+        for (j, sh) in shade.iter().enumerate() {
             let Some(sh) = sh.as_ref().filter(|sh| sh.guide.is_none()) else {
                 continue;
             };
-            if let Some(a) = sh.bsdf.ggx_alpha() {
-                alpha[k] = a;
-                (wo[0][k], wo[1][k], wo[2][k]) = (sh.wo_local.x, sh.wo_local.y, sh.wo_local.z);
+            if let Some(m) = sh.bsdf.ggx_conductor() {
+                c.alpha[j] = m.microfacet.alpha;
+                c.separable[j] = m.microfacet.masking == Masking::Separable;
+                for ch in 0..3 {
+                    (c.eta[ch][j], c.k[ch][j]) = (m.eta[ch], m.k[ch]);
+                }
+                (wo[0][j], wo[1][j], wo[2][j]) = (sh.wo_local.x, sh.wo_local.y, sh.wo_local.z);
                 any = true;
             }
         }
-        any.then(|| ggx_visible_normals_lanes(&alpha, &wo, u))
+        any.then(|| {
+            let h = ggx_visible_normals_lanes(&c.alpha, &wo, u);
+            let s = samples_at_normals_lanes(&c, &wo, &h);
+            (h, s)
+        })
     }
 }

@@ -327,17 +327,14 @@ impl<'a> PathTracer<'a> {
             }
             let cosine = square_to_cosine_hemisphere_lanes(&u);
             let ggx = if MATERIALS {
-                self.ggx_normals(&shade, &u)
+                self.ggx_samples(&shade, &u)
             } else {
                 None
             };
             for (i, (lane, sh)) in lanes.iter_mut().zip(shade.iter_mut()).enumerate() {
                 if let Some(s) = sh {
                     let u = Vec2::new(u[0][i], u[1][i]);
-                    let warped = Warped {
-                        cosine: Vec3::new(cosine[0][i], cosine[1][i], cosine[2][i]),
-                        ggx: ggx.map_or(Vec3::ZERO, |h| Vec3::new(h[0][i], h[1][i], h[2][i])),
-                    };
+                    let warped = Warped::lane(&cosine, ggx.as_ref(), i);
                     self.scatter::<B, MATERIALS, DELTA, SHAPES>(lane, i, s, u, &warped);
                     *sh = None;
                 }
