@@ -6,10 +6,10 @@
 //! That code is compiled once per level through the `pulp` crate: its
 //! `Simd::vectorize` runs an operation inside a function compiled with the
 //! level's target features, and the code inlined there is compiled for that
-//! level (the BVH's 8-wide node test gains from it, and so does the one
-//! kernel step written across the batch's lanes so far, the cosine warp of
-//! diffuse bounces, `sampling::square_to_cosine_hemisphere_lanes`; the
-//! rest of the kernels' shading is still one lane at a time).
+//! level (the BVH's 8-wide node test gains from it, and so do the kernel
+//! steps written across the batch's lanes, `integrator/path/kernel_bsdf.rs`:
+//! the cosine warp of diffuse bounces and the rough GGX conductors'
+//! samples; the rest of the kernels' shading is still one lane at a time).
 //! `pulp` is safe to call (it checks the CPU before it hands out a level),
 //! maintained, and covers the three x86-64 levels a render farm meets; it
 //! is why this crate needs no `unsafe` for its vector code.
