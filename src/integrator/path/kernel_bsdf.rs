@@ -25,7 +25,8 @@ pub(super) trait KernelBsdf: Bxdf + Copy {
     fn sample_given(&self, wo: Vec3, u: Vec2, warped: &Warped) -> Option<BsdfSample>;
 
     /// A rough GGX conductor, whose sample the kernel computes across the
-    /// batch ([`Warped::ggx`]).
+    /// batch ([`Warped::ggx`]; an unguided lane's, the others sample one
+    /// at a time).
     fn ggx_conductor(&self) -> Option<&Conductor>;
 }
 
@@ -37,14 +38,21 @@ pub(super) struct Warped {
     /// The cosine-weighted direction
     /// ([`crate::sampling::square_to_cosine_hemisphere`]).
     pub(super) cosine: Vec3,
-    /// The GGX visible normal for [`KernelBsdf::ggx_conductor`] and the
-    /// lane's `wo` (unchecked; zero where the lane has no such conductor),
+    /// Where the batch had a rough GGX conductor
+    /// ([`KernelBsdf::ggx_conductor`]): the visible normal for the lane's
+    /// `wo` (unchecked; meaningless where the lane has no such conductor),
     /// and the conductor's `wi`, `f` and `pdf` for it (before the checks
     /// of [`Conductor::sample_at_normal`]).
-    pub(super) ggx: Vec3,
-    pub(super) wi: Vec3,
-    pub(super) f: Vec3,
-    pub(super) pdf: f32,
+    pub(super) ggx: Option<GgxLane>,
+}
+
+/// One lane's [`Warped::ggx`].
+#[derive(Debug, Clone, Copy)]
+pub(super) struct GgxLane {
+    h: Vec3,
+    wi: Vec3,
+    f: Vec3,
+    pdf: f32,
 }
 
 impl Warped {
@@ -52,16 +60,14 @@ impl Warped {
     #[inline(always)]
     pub(super) fn lane(cosine: &[[f32; BATCH]; 3], ggx: Option<&GgxLanes>, j: usize) -> Self {
         let v = |a: &[[f32; BATCH]; 3]| Vec3::new(a[0][j], a[1][j], a[2][j]);
-        let (ggx, wi, f, pdf) = match ggx {
-            Some((h, s)) => (v(h), v(&s.wi), v(&s.f), s.pdf[j]),
-            None => (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0),
-        };
         Warped {
             cosine: v(cosine),
-            ggx,
-            wi,
-            f,
-            pdf,
+            ggx: ggx.map(|(h, s)| GgxLane {
+                h: v(h),
+                wi: v(&s.wi),
+                f: v(&s.f),
+                pdf: s.pdf[j],
+            }),
         }
     }
 }
@@ -120,23 +126,23 @@ impl KernelBsdf for Bsdf {
 
     #[inline(always)]
     fn sample_given(&self, wo: Vec3, u: Vec2, warped: &Warped) -> Option<BsdfSample> {
-        match self {
-            Bsdf::Diffuse(d) => d.sample_warped(wo, warped.cosine),
-            Bsdf::Conductor(c) if self.ggx_conductor().is_some() => {
+        match (self, &warped.ggx) {
+            (Bsdf::Diffuse(d), _) => d.sample_warped(wo, warped.cosine),
+            (Bsdf::Conductor(c), Some(g)) if self.ggx_conductor().is_some() => {
                 // the checks of `sample_visible` and `sample_at_normal`
-                c.microfacet.visible_normal_from(wo, warped.ggx)?;
-                if !(warped.wi.z > 0.0) {
+                c.microfacet.visible_normal_from(wo, g.h)?;
+                if !(g.wi.z > 0.0) {
                     return None;
                 }
                 BsdfSample {
-                    wi: warped.wi,
-                    f: warped.f,
-                    pdf: warped.pdf,
+                    wi: g.wi,
+                    f: g.f,
+                    pdf: g.pdf,
                     delta: false,
                 }
                 .checked()
             }
-            b => b.sample(wo, u),
+            (b, _) => b.sample(wo, u),
         }
     }
 

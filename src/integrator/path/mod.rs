@@ -36,8 +36,7 @@ mod guided;
 mod kernel_bsdf;
 pub use guided::{GuideVertex, take_recorded};
 use guided::{adjoint_roulette, record};
-use kernel_bsdf::KernelBsdf;
-use kernel_bsdf::Warped;
+use kernel_bsdf::{KernelBsdf, Warped};
 
 /// Paths traced together: a 4 x 4 block of pixels, the width of Embree's
 /// widest packet.
@@ -315,9 +314,10 @@ impl<'a> PathTracer<'a> {
             // --- direct lighting: light sampling, shadow rays in batches ---
             self.sample_lights::<B, DELTA, SHAPES>(lanes, &shade, rays);
 
-            // --- BSDF sampling: each live path's next ray; the numbers'
-            // cosine-weighted warp for every lane at once (a Lambertian
-            // lobe's sample) ---
+            // --- BSDF sampling: each live path's next ray; what the
+            // numbers warp to for every lane at once (a Lambertian lobe's
+            // direction, a rough GGX conductor's sample), in loops that
+            // vectorise ---
             let mut u = [[0.5; BATCH]; 2];
             for (i, (lane, sh)) in lanes.iter_mut().zip(&shade).enumerate() {
                 if sh.is_some() {
