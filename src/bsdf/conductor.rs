@@ -22,12 +22,11 @@
 //! Scene form: `material = { type = "conductor", alpha = 0.2, eta = [r, g,
 //! b], k = [r, g, b], distribution = "ggx" }` (or `"beckmann"`).
 
-use super::fresnel::{fr_conductor, reflect};
-use super::microfacet::Microfacet;
+use super::fresnel::{fr_conductor, fr_conductor_channel, reflect};
+use super::microfacet::{Microfacet, ggx_d, ggx_lambda};
 use super::mirror::specular_reflection;
 use super::{BsdfSample, Bxdf};
 use crate::math::{Vec2, Vec3};
-use std::f32::consts::PI;
 
 /// A rough (or smooth) conductor.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -216,10 +215,9 @@ pub struct LaneSamples<const N: usize> {
 /// conductors are rough GGX ones (`c`), seen from `wo[..][j]`, for the
 /// visible normal `h[..][j]` (issue 37). One loop without a branch or a
 /// call, which the compiler turns into vector code for the caller's
-/// instruction set; each lane computes the scalar path's operations in
-/// the same order (`eval_and_pdf`, `Microfacet::d`, `lambda`,
-/// `fr_conductor`, one channel at a time), so each gets its bits
-/// (`tests` compares them).
+/// instruction set; each lane runs `eval_and_pdf`'s steps through the
+/// functions the scalar path calls (`ggx_d`, `ggx_lambda`,
+/// `fr_conductor_channel`), so each gets its bits (`tests` compares them).
 #[inline(always)]
 pub fn samples_at_normals_lanes<const N: usize>(
     c: &ConductorLanes<N>,
@@ -242,12 +240,13 @@ pub fn samples_at_normals_lanes<const N: usize>(
         let hh = sum / len;
         // D (GGX), 0 below the horizon
         let a = c.alpha[j];
-        let a2 = a * a;
-        let sin2 = hh.x * hh.x + hh.y * hh.y;
-        let cos2 = hh.z * hh.z;
-        let t = sin2 + a2 * cos2;
-        let d = if hh.z > 0.0 { a2 / (PI * t * t) } else { 0.0 };
-        let (lo, li) = (lambda_ggx(a, wo), lambda_ggx(a, wi));
+        let (sin2, cos2) = (hh.x * hh.x + hh.y * hh.y, hh.z * hh.z);
+        let d = if hh.z > 0.0 {
+            ggx_d(a * a, sin2, cos2)
+        } else {
+            0.0
+        };
+        let (lo, li) = (ggx_lambda(a, wo), ggx_lambda(a, wi));
         let g1 = 1.0 / (1.0 + lo);
         let g = if c.separable[j] {
             g1 * (1.0 / (1.0 + li))
@@ -255,8 +254,9 @@ pub fn samples_at_normals_lanes<const N: usize>(
             1.0 / (1.0 + (lo + li))
         };
         let scale = d * g / (4.0 * (wo.z * wi.z));
-        let f: [f32; 3] =
-            std::array::from_fn(|ch| fresnel_channel(0.5 * len, c.eta[ch][j], c.k[ch][j]) * scale);
+        let f: [f32; 3] = std::array::from_fn(|ch| {
+            fr_conductor_channel(0.5 * len, c.eta[ch][j], c.k[ch][j]) * scale
+        });
         let p = g1 * d / (4.0 * wo.z);
         // zero where `half` or `D` gives none, or a value is not finite
         let some = len > 0.0 && d > 0.0;
@@ -267,50 +267,6 @@ pub fn samples_at_normals_lanes<const N: usize>(
         out.pdf[j] = if some && p.is_finite() { p } else { 0.0 };
     }
     out
-}
-
-/// [`Microfacet::lambda`] for GGX, with selects for its early returns.
-#[inline(always)]
-fn lambda_ggx(alpha: f32, w: Vec3) -> f32 {
-    let sin2 = w.x * w.x + w.y * w.y;
-    let cos2 = w.z * w.z;
-    let x = alpha * alpha * (sin2 / cos2);
-    let l = x / (2.0 * (1.0 + (1.0 + x).sqrt()));
-    if sin2 == 0.0 {
-        0.0
-    } else if cos2 == 0.0 || x.is_infinite() {
-        f32::INFINITY
-    } else {
-        l
-    }
-}
-
-/// One channel of [`fr_conductor`], its operations in its order.
-#[inline(always)]
-fn fresnel_channel(cos_theta_i: f32, eta: f32, k: f32) -> f32 {
-    let cos = cos_theta_i.clamp(0.0, 1.0);
-    let cos2 = cos * cos;
-    let sin2 = 1.0 - cos2;
-    let diff = (eta * eta - k * k - 1.0) + cos2;
-    let ek = eta * k;
-    let sum = (diff * diff + 4.0 * ek * ek).sqrt();
-    let a2 = if diff >= 0.0 {
-        0.5 * (sum + diff)
-    } else {
-        2.0 * ek * ek / (sum - diff)
-    };
-    let a = a2.sqrt();
-    let s1 = sum + cos2;
-    let s2 = 2.0 * cos * a;
-    let r_s = if s1 + s2 > 0.0 {
-        (s1 - s2) / (s1 + s2)
-    } else {
-        1.0
-    };
-    let t = sum * cos2 + sin2 * sin2;
-    let u = s2 * sin2;
-    let r_p = r_s * (t - u) / (t + u);
-    0.5 * (r_s + r_p)
 }
 
 #[cfg(test)]

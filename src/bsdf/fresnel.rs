@@ -15,7 +15,7 @@
 //! direction with `cos < 0` is below the surface, and the formulas then swap
 //! the media by using `1 / eta`.
 
-use crate::math::{Vec3, Vec3A};
+use crate::math::Vec3;
 
 /// Fresnel reflectance of a smooth dielectric boundary for light arriving at
 /// `cos_theta_i` from the normal, where `eta` is the index below the surface
@@ -54,42 +54,51 @@ pub fn fr_dielectric(cos_theta_i: f32, eta: f32) -> f32 {
 /// `r_p = r_s (t - 2 a cos sin^2) / (t + 2 a cos sin^2)`, `t = (a^2 + b^2)
 /// cos^2 + sin^4`, and `F = (r_s + r_p) / 2`.
 ///
-/// All three channels are one vector computation (two square roots and three
-/// divisions in all, against six roots and twelve divisions in complex
-/// arithmetic channel by channel). `a^2 = ((a^2 + b^2) + (a^2 - b^2)) / 2`
+/// Two square roots and three divisions a channel, against two roots and
+/// four divisions in complex arithmetic. `a^2 = ((a^2 + b^2) + (a^2 - b^2)) / 2`
 /// cancels when `k` dominates (silver: `k / eta` near 30), so where `a^2 -
 /// b^2 < 0` it is computed as `2 eta^2 k^2 / ((a^2 + b^2) - (a^2 - b^2))`,
 /// the same value without the subtraction. A purely imaginary index (`eta =
 /// 0`, `k > 0`) is a lossless ideal conductor: `a = 0`, so both polarisations
 /// reflect with `|r| = 1` and `F = 1` at every angle.
 pub fn fr_conductor(cos_theta_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
+    Vec3::from_array(std::array::from_fn(|c| {
+        fr_conductor_channel(cos_theta_i, eta[c], k[c])
+    }))
+}
+
+/// One channel of [`fr_conductor`]. Written without a branch or a call
+/// (selects), so that a loop of it over a batch's lanes vectorises
+/// (`bsdf::samples_at_normals_lanes`); the scalar path and the lanes are
+/// this one function.
+#[inline(always)]
+pub fn fr_conductor_channel(cos_theta_i: f32, eta: f32, k: f32) -> f32 {
     let cos = cos_theta_i.clamp(0.0, 1.0);
-    let (eta, k) = (Vec3A::from(eta), Vec3A::from(k));
     let cos2 = cos * cos;
     let sin2 = 1.0 - cos2;
     // a^2 - b^2, as (eta^2 - k^2 - 1) + cos^2: sin^2 = 1 - cos^2 would round
     // away the small cosines that matter where eta^2 - k^2 is near 1
-    let diff = (eta * eta - k * k - Vec3A::ONE) + Vec3A::splat(cos2);
+    let diff = (eta * eta - k * k - 1.0) + cos2;
     let ek = eta * k;
     let sum = (diff * diff + 4.0 * ek * ek).sqrt(); // a^2 + b^2
-    let a2 = Vec3A::select(
-        diff.cmpge(Vec3A::ZERO),
-        0.5 * (sum + diff),
-        2.0 * ek * ek / (sum - diff),
-    );
+    let a2 = if diff >= 0.0 {
+        0.5 * (sum + diff)
+    } else {
+        2.0 * ek * ek / (sum - diff)
+    };
     let a = a2.sqrt();
-    let s1 = sum + Vec3A::splat(cos2);
+    let s1 = sum + cos2;
     let s2 = 2.0 * cos * a;
     // s1 + s2 = 0 only at grazing incidence on eta = 1, k = 0: F = 1 there
-    let r_s = Vec3A::select(
-        (s1 + s2).cmpgt(Vec3A::ZERO),
-        (s1 - s2) / (s1 + s2),
-        Vec3A::ONE,
-    );
-    let t = sum * cos2 + Vec3A::splat(sin2 * sin2);
+    let r_s = if s1 + s2 > 0.0 {
+        (s1 - s2) / (s1 + s2)
+    } else {
+        1.0
+    };
+    let t = sum * cos2 + sin2 * sin2;
     let u = s2 * sin2;
     let r_p = r_s * (t - u) / (t + u);
-    Vec3::from(0.5 * (r_s + r_p))
+    0.5 * (r_s + r_p)
 }
 
 /// Mirror reflection of `w` about the normal `n`: `-w + 2 (w . n) n`.

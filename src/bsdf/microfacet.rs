@@ -147,11 +147,7 @@ impl Microfacet {
         let sin2 = h.x * h.x + h.y * h.y;
         let cos2 = h.z * h.z;
         match self.distribution {
-            Distribution::Ggx => {
-                // alpha^2 / (pi (sin^2 + alpha^2 cos^2)^2): no 1 - cos^2 cancellation
-                let t = sin2 + a2 * cos2;
-                a2 / (PI * t * t)
-            }
+            Distribution::Ggx => ggx_d(a2, sin2, cos2),
             Distribution::Beckmann => {
                 let e = (-(sin2 / cos2) / a2).exp();
                 if e == 0.0 {
@@ -165,33 +161,9 @@ impl Microfacet {
     /// Smith's `Lambda(w)`: the ratio of masked to visible projected area in
     /// direction `w` (depends only on `|tan(theta)|`).
     pub fn lambda(&self, w: Vec3) -> f32 {
-        let sin2 = w.x * w.x + w.y * w.y;
-        let cos2 = w.z * w.z;
-        if sin2 == 0.0 {
-            return 0.0;
-        }
-        if cos2 == 0.0 {
-            return f32::INFINITY;
-        }
         match self.distribution {
-            Distribution::Ggx => {
-                // (sqrt(1 + a^2 tan^2) - 1) / 2, written without cancellation
-                let x = self.alpha * self.alpha * (sin2 / cos2);
-                if x.is_infinite() {
-                    return f32::INFINITY;
-                }
-                x / (2.0 * (1.0 + (1.0 + x).sqrt()))
-            }
-            Distribution::Beckmann => {
-                // a = 1 / (alpha tan(theta));
-                // Lambda = (erf(a) - 1) / 2 + exp(-a^2) / (2 a sqrt(pi))
-                let a = (w.z.abs() as f64) / (self.alpha as f64 * (sin2 as f64).sqrt());
-                if a == 0.0 {
-                    return f32::INFINITY;
-                }
-                let l = 0.5 * (-erfc(a) + (-a * a).exp() / (a * SQRT_PI));
-                l.max(0.0) as f32
-            }
+            Distribution::Ggx => ggx_lambda(self.alpha, w),
+            Distribution::Beckmann => beckmann_lambda(self.alpha, w),
         }
     }
 
@@ -393,6 +365,54 @@ fn visible_slope(tan_t: f64, u: f64) -> f64 {
         x = next;
     }
     x
+}
+
+/// GGX's `D` for `alpha^2` and the normal's `sin^2` and `cos^2` (above
+/// the horizon): `alpha^2 / (pi (sin^2 + alpha^2 cos^2)^2)`, no `1 - cos^2`
+/// cancellation. [`Microfacet::d`] and the lanes' form
+/// (`bsdf::samples_at_normals_lanes`) are this function.
+#[inline(always)]
+pub(crate) fn ggx_d(a2: f32, sin2: f32, cos2: f32) -> f32 {
+    let t = sin2 + a2 * cos2;
+    a2 / (PI * t * t)
+}
+
+/// Beckmann's Smith `Lambda(w)` (Heitz 2014): with `a = 1 / (alpha
+/// tan(theta))`, `(erf(a) - 1) / 2 + exp(-a^2) / (2 a sqrt(pi))`, in `f64`.
+fn beckmann_lambda(alpha: f32, w: Vec3) -> f32 {
+    let sin2 = w.x * w.x + w.y * w.y;
+    let cos2 = w.z * w.z;
+    if sin2 == 0.0 {
+        return 0.0;
+    }
+    if cos2 == 0.0 {
+        return f32::INFINITY;
+    }
+    let a = (w.z.abs() as f64) / (alpha as f64 * (sin2 as f64).sqrt());
+    if a == 0.0 {
+        return f32::INFINITY;
+    }
+    let l = 0.5 * (-erfc(a) + (-a * a).exp() / (a * SQRT_PI));
+    l.max(0.0) as f32
+}
+
+/// GGX's Smith `Lambda(w)`, `(sqrt(1 + a^2 tan^2) - 1) / 2` written without
+/// cancellation: 0 along the normal, infinite at the horizon. Selects, no
+/// branch, so a loop of it over lanes vectorises; [`Microfacet::lambda`]
+/// and the lanes' form are this function.
+#[inline(always)]
+pub(crate) fn ggx_lambda(alpha: f32, w: Vec3) -> f32 {
+    let sin2 = w.x * w.x + w.y * w.y;
+    let cos2 = w.z * w.z;
+    let x = alpha * alpha * (sin2 / cos2);
+    let l = x / (2.0 * (1.0 + (1.0 + x).sqrt()));
+    if sin2 == 0.0 {
+        0.0
+    } else if cos2 == 0.0 || x.is_infinite() {
+        f32::INFINITY
+    } else {
+        l
+    }
 }
 
 /// The GGX visible normal ([`Microfacet::sample_visible`]'s, before its

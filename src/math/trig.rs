@@ -242,20 +242,36 @@ mod tests {
         assert!(atan2(f32::NAN, 1.0).is_nan() && atan2(1.0, f32::NAN).is_nan());
     }
 
+    /// Over `points`, the largest errors of a sine-cosine pair `f` against
+    /// the `f64` angle `angle(x)` by the measure `err`, each with where.
+    fn worst_sin_cos(
+        points: Vec<f32>,
+        f: impl Fn(f32) -> (f32, f32),
+        angle: impl Fn(f32) -> f64,
+        err: impl Fn(f32, f64) -> f64,
+    ) -> [(f64, f32); 2] {
+        let mut worst = [(0.0, 0.0); 2];
+        for x in points {
+            let (s, c) = f(x);
+            let a = angle(x);
+            for (w, e) in worst.iter_mut().zip([err(s, a.sin()), err(c, a.cos())]) {
+                if e > w.0 {
+                    *w = (e, x);
+                }
+            }
+        }
+        worst
+    }
+
     #[test]
     fn sin_cos_quarter_is_within_one_ulp() {
         let q = FRAC_PI_4;
-        let (mut ws, mut wc): ((f64, f32), (f64, f32)) = ((0.0, 0.0), (0.0, 0.0));
-        for x in sweep(-q, q, 1 << 20, &[0.0]) {
-            let (s, c) = sin_cos_quarter(x);
-            let (es, ec) = (ulps(s, (x as f64).sin()), ulps(c, (x as f64).cos()));
-            if es > ws.0 {
-                ws = (es, x);
-            }
-            if ec > wc.0 {
-                wc = (ec, x);
-            }
-        }
+        let [ws, wc] = worst_sin_cos(
+            sweep(-q, q, 1 << 20, &[0.0]),
+            sin_cos_quarter,
+            f64::from,
+            ulps,
+        );
         assert!(ws.0 <= 1.0, "sine: {} ulps at {}", ws.0, ws.1);
         assert!(wc.0 <= 1.0, "cosine: {} ulps at {}", wc.0, wc.1);
         assert_eq!(sin_cos_quarter(0.0), (0.0, 1.0));
@@ -266,22 +282,13 @@ mod tests {
         // against the exact angle 2 pi t; near a zero of the function the
         // error is counted in ulps of 1 (the absolute error is what a
         // direction built of them feels)
-        let (mut ws, mut wc): ((f64, f32), (f64, f32)) = ((0.0, 0.0), (0.0, 0.0));
         let quarters = [0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875];
-        let err = |got: f32, want: f64| {
-            ulps(got, want).min((got as f64 - want).abs() / f32::EPSILON as f64)
-        };
-        for t in sweep(0.0, 1.0, 1 << 20, &quarters) {
-            let (s, c) = sin_cos_turn(t);
-            let a = 2.0 * std::f64::consts::PI * t as f64;
-            let (es, ec) = (err(s, a.sin()), err(c, a.cos()));
-            if es > ws.0 {
-                ws = (es, t);
-            }
-            if ec > wc.0 {
-                wc = (ec, t);
-            }
-        }
+        let [ws, wc] = worst_sin_cos(
+            sweep(0.0, 1.0, 1 << 20, &quarters),
+            sin_cos_turn,
+            |t| 2.0 * std::f64::consts::PI * t as f64,
+            |got, want| ulps(got, want).min((got as f64 - want).abs() / f32::EPSILON as f64),
+        );
         assert!(ws.0 <= 1.0, "sine: {} ulps at {}", ws.0, ws.1);
         assert!(wc.0 <= 1.0, "cosine: {} ulps at {}", wc.0, wc.1);
         // the quarter turns are exact
