@@ -10,7 +10,7 @@ use super::instance::{InstanceSet, PrototypeQuery};
 use super::sphere::SphereSet;
 use super::triangle::WatertightRay;
 use super::wide::{LANES, Tri16};
-use super::{Accelerator, AlphaTest, Hit, HitFilter, Masks, Opaque, TriangleSoup};
+use super::{Accelerator, AlphaTest, Coherence, Hit, HitFilter, Masks, Opaque, TriangleSoup};
 use crate::math::{Ray, Vec3};
 use crate::simd::{Dispatch, Level};
 
@@ -101,6 +101,27 @@ impl Accelerator for Naive {
         self.any_triangle(ray, &Opaque) || self.spheres.any(ray) || self.instances.any(ray, None)
     }
 
+    /// [`Accelerator::intersect`] for each ray, the triangles' scans in one
+    /// dispatch to the instruction set instead of one per ray (the same
+    /// answers).
+    fn intersect_batch(&self, rays: &[Ray], hits: &mut [Option<Hit>], _: Coherence) {
+        debug_assert_eq!(rays.len(), hits.len());
+        self.simd.run(ClosestEach {
+            naive: self,
+            rays,
+            hits: &mut *hits,
+        });
+        if self.spheres.is_empty() && self.instances.is_empty() {
+            return;
+        }
+        for (ray, hit) in rays.iter().zip(hits) {
+            if ray.is_finite() {
+                let best = with_spheres(&self.spheres, ray, *hit);
+                *hit = self.instances.closest(ray, best, None);
+            }
+        }
+    }
+
     fn intersect_masked(&self, ray: &Ray, alpha: &dyn AlphaTest) -> Option<Hit> {
         if !ray.is_finite() {
             return None;
@@ -166,16 +187,43 @@ impl<F: HitFilter> pulp::WithSimd for Closest<'_, F> {
     type Output = Option<Hit>;
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _: S) -> Option<Hit> {
-        let wr = WatertightRay::new(self.ray);
+        self.naive.scan_closest(self.ray, self.filter)
+    }
+}
+
+/// [`Closest`] over the triangles alone for each of a batch's rays (none
+/// for a non-finite ray), in one run.
+struct ClosestEach<'q> {
+    naive: &'q Naive,
+    rays: &'q [Ray],
+    hits: &'q mut [Option<Hit>],
+}
+
+impl pulp::WithSimd for ClosestEach<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        for (ray, hit) in self.rays.iter().zip(self.hits) {
+            *hit = if ray.is_finite() {
+                self.naive.scan_closest(ray, &Opaque)
+            } else {
+                None
+            };
+        }
+    }
+}
+
+impl Naive {
+    /// The closest triangle hit of `ray` that `filter` keeps, block by
+    /// block in index order.
+    #[inline(always)]
+    fn scan_closest<F: HitFilter>(&self, ray: &Ray, filter: &F) -> Option<Hit> {
+        let wr = WatertightRay::new(ray);
         let mut best: Option<Hit> = None;
-        let mut t_max = self.ray.t_max;
-        for (block, lanes) in self.naive.blocks() {
-            wr.intersect16(block, lanes, t_max).fold_closest(
-                block,
-                &mut best,
-                &mut t_max,
-                self.filter,
-            );
+        let mut t_max = ray.t_max;
+        for (block, lanes) in self.blocks() {
+            wr.intersect16(block, lanes, t_max)
+                .fold_closest(block, &mut best, &mut t_max, filter);
         }
         best
     }
