@@ -121,7 +121,11 @@ def test_rendering_releases_the_gil():
 
 
 CHILD = """
-import sys, embertrace
+import signal, sys, embertrace
+# a child started with SIGINT ignored (a non-interactive shell's background
+# job, as `cmd &` in a script) keeps it ignored; Ctrl-C's handler is what
+# is under test
+signal.signal(signal.SIGINT, signal.default_int_handler)
 def progress(p):
     if p["pass"] == 1:
         print("rendering", flush=True)
