@@ -186,8 +186,8 @@ struct Closest<'q, F> {
 impl<F: HitFilter> pulp::WithSimd for Closest<'_, F> {
     type Output = Option<Hit>;
     #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _: S) -> Option<Hit> {
-        self.naive.scan_closest(self.ray, self.filter)
+    fn with_simd<S: pulp::Simd>(self, simd: S) -> Option<Hit> {
+        self.naive.scan_closest(simd, self.ray, self.filter)
     }
 }
 
@@ -202,10 +202,10 @@ struct ClosestEach<'q> {
 impl pulp::WithSimd for ClosestEach<'_> {
     type Output = ();
     #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _: S) {
+    fn with_simd<S: pulp::Simd>(self, simd: S) {
         for (ray, hit) in self.rays.iter().zip(self.hits) {
             *hit = if ray.is_finite() {
-                self.naive.scan_closest(ray, &Opaque)
+                self.naive.scan_closest(simd, ray, &Opaque)
             } else {
                 None
             };
@@ -217,12 +217,17 @@ impl Naive {
     /// The closest triangle hit of `ray` that `filter` keeps, block by
     /// block in index order.
     #[inline(always)]
-    fn scan_closest<F: HitFilter>(&self, ray: &Ray, filter: &F) -> Option<Hit> {
+    fn scan_closest<S: pulp::Simd, F: HitFilter>(
+        &self,
+        simd: S,
+        ray: &Ray,
+        filter: &F,
+    ) -> Option<Hit> {
         let wr = WatertightRay::new(ray);
         let mut best: Option<Hit> = None;
         let mut t_max = ray.t_max;
         for (block, lanes) in self.blocks() {
-            wr.intersect16(block, lanes, t_max)
+            wr.intersect16(simd, block, lanes, t_max)
                 .fold_closest(block, &mut best, &mut t_max, filter);
         }
         best
@@ -239,12 +244,20 @@ struct Any<'q, F> {
 impl<F: HitFilter> pulp::WithSimd for Any<'_, F> {
     type Output = bool;
     #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _: S) -> bool {
+    fn with_simd<S: pulp::Simd>(self, simd: S) -> bool {
         let wr = WatertightRay::new(self.ray);
-        self.naive.blocks().any(|(block, lanes)| {
-            wr.intersect16(block, lanes, self.ray.t_max)
+        // a loop, not `Iterator::any`: its closure is not inlined into the
+        // function compiled for the instruction set, and the test's
+        // compares would then be calls
+        for (block, lanes) in self.naive.blocks() {
+            if wr
+                .intersect16(simd, block, lanes, self.ray.t_max)
                 .any_kept(block, self.filter)
-        })
+            {
+                return true;
+            }
+        }
+        false
     }
 }
 
