@@ -63,6 +63,20 @@ impl Naive {
         }
     }
 
+    /// The closest of the triangle hit `best` of the finite `ray` and the
+    /// spheres' and placements' hits (`alpha` cutting the placements'
+    /// triangles).
+    #[inline]
+    fn with_others(
+        &self,
+        ray: &Ray,
+        best: Option<Hit>,
+        alpha: Option<&dyn AlphaTest>,
+    ) -> Option<Hit> {
+        let best = with_spheres(&self.spheres, ray, best);
+        self.instances.closest(ray, best, alpha)
+    }
+
     /// Each block with its lane mask.
     #[inline(always)]
     fn blocks(&self) -> impl Iterator<Item = (&Tri16, u32)> {
@@ -89,9 +103,7 @@ impl Accelerator for Naive {
         if !ray.is_finite() {
             return None;
         }
-        let best = self.closest_triangle(ray, &Opaque);
-        let best = with_spheres(&self.spheres, ray, best);
-        self.instances.closest(ray, best, None)
+        self.with_others(ray, self.closest_triangle(ray, &Opaque), None)
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
@@ -116,8 +128,7 @@ impl Accelerator for Naive {
         }
         for (ray, hit) in rays.iter().zip(hits) {
             if ray.is_finite() {
-                let best = with_spheres(&self.spheres, ray, *hit);
-                *hit = self.instances.closest(ray, best, None);
+                *hit = self.with_others(ray, *hit, None);
             }
         }
     }
@@ -131,9 +142,7 @@ impl Accelerator for Naive {
             ray,
             first_prim: 0,
         };
-        let best = self.closest_triangle(ray, &masks);
-        let best = with_spheres(&self.spheres, ray, best);
-        self.instances.closest(ray, best, Some(alpha))
+        self.with_others(ray, self.closest_triangle(ray, &masks), Some(alpha))
     }
 
     fn occluded_masked(&self, ray: &Ray, alpha: &dyn AlphaTest) -> bool {
