@@ -58,6 +58,7 @@ mod spatial;
 use crate::math::Vec3;
 use dtree::{BuildTree, SampleTree};
 use fraction::{Fraction, FractionSample};
+use rayon::prelude::*;
 use spatial::{MAX_SPATIAL_DEPTH, NORMAL_CLASSES, SpatialNode, SpatialTree};
 use std::fmt;
 use std::str::FromStr;
@@ -124,6 +125,25 @@ struct LeafState {
     radiance_count: u64,
     /// The learned share of BSDF samples, all iterations so far.
     fraction: Fraction,
+}
+
+impl LeafState {
+    /// Add one record of this leaf.
+    #[inline]
+    fn add(&mut self, r: &Record) {
+        self.count += 1;
+        if r.radiance >= 0.0 && r.radiance.is_finite() {
+            self.radiance_sum += r.radiance as f64;
+            self.radiance_count += 1;
+        }
+        if r.value > 0.0 && r.value.is_finite() {
+            self.build
+                .add_filtered(dtree::dir_to_square(r.dir), r.value as f64);
+        }
+        if let Some(f) = &r.fraction {
+            self.fraction.add(f);
+        }
+    }
 }
 
 /// One record of training: at `p`, on a surface of normal `n`, radiance
@@ -339,20 +359,63 @@ impl GuideBuilder {
     /// Add `records`, in their order.
     pub fn deposit(&mut self, records: &[Record]) {
         for r in records {
-            let leaf = &mut self.leaves[self.tree.leaf(r.p, r.n)];
-            leaf.count += 1;
-            if r.radiance >= 0.0 && r.radiance.is_finite() {
-                leaf.radiance_sum += r.radiance as f64;
-                leaf.radiance_count += 1;
-            }
-            if r.value > 0.0 && r.value.is_finite() {
-                leaf.build
-                    .add_filtered(dtree::dir_to_square(r.dir), r.value as f64);
-            }
-            if let Some(f) = &r.fraction {
-                leaf.fraction.add(f);
-            }
+            let leaf = self.leaf_of(r);
+            self.leaves[leaf].add(r);
         }
+    }
+
+    /// The leaf [`GuideBuilder::deposit`] adds `record` to (the spatial
+    /// tree changes only when an iteration ends).
+    #[inline]
+    pub fn leaf_of(&self, record: &Record) -> usize {
+        self.tree.leaf(record.p, record.n)
+    }
+
+    /// [`GuideBuilder::deposit`] of the records of `batches` in their order,
+    /// each batch's records beside their leaves ([`GuideBuilder::leaf_of`],
+    /// which the callers find in parallel), with the leaves filled in
+    /// parallel on the current `rayon` pool. A leaf takes its records in the
+    /// same order as the serial deposit and nothing is shared between
+    /// leaves, so the sums are the same bits for any thread count.
+    pub fn deposit_by_leaf<'a>(
+        &mut self,
+        batches: impl IntoIterator<Item = (&'a [Record], &'a [u32])> + Clone,
+    ) {
+        let pairs = || {
+            batches.clone().into_iter().flat_map(|(records, leaves)| {
+                assert_eq!(records.len(), leaves.len(), "a leaf per record");
+                records.iter().zip(leaves)
+            })
+        };
+        if rayon::current_num_threads() == 1 {
+            for (r, &leaf) in pairs() {
+                self.leaves[leaf as usize].add(r);
+            }
+            return;
+        }
+        // the records ordered by leaf, each leaf's in their order (a
+        // counting sort), then each leaf's run added on its own
+        let mut start = vec![0usize; self.leaves.len() + 1];
+        for (_, &leaf) in pairs() {
+            start[leaf as usize + 1] += 1;
+        }
+        for i in 1..start.len() {
+            start[i] += start[i - 1];
+        }
+        let mut next = start.clone();
+        let mut sorted: Vec<Option<&Record>> = vec![None; start[self.leaves.len()]];
+        for (r, &leaf) in pairs() {
+            sorted[next[leaf as usize]] = Some(r);
+            next[leaf as usize] += 1;
+        }
+        self.leaves
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, leaf)| {
+                for r in sorted[start[i]..start[i + 1]].iter().flatten() {
+                    leaf.add(r);
+                }
+            });
     }
 
     /// End training iteration `iteration` (0 first): every leaf's records
@@ -429,6 +492,62 @@ impl GuideBuilder {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sampler::mix64;
+
+    /// Records by leaf on pools of one and three threads, in batches of
+    /// uneven sizes, train the guide the serial deposit trains, bit for
+    /// bit, over iterations whose leaves split (so the leaves differ from
+    /// one iteration to the next).
+    #[test]
+    fn depositing_by_leaf_in_parallel_trains_the_serial_guide() {
+        let unit = |k: u64, s: u64| (mix64(k ^ s << 40) >> 40) as f32 / (1u64 << 24) as f32;
+        let records = |it: u64| -> Vec<Record> {
+            (0..60_000u64)
+                .map(|i| {
+                    let k = i + 100_000 * it;
+                    let n = [Vec3::Y, Vec3::Y, -Vec3::X, Vec3::Z][(k % 4) as usize];
+                    Record {
+                        // crowded in one corner, so leaves there split
+                        p: Vec3::new(unit(k, 1), unit(k, 2), unit(k, 3)).powf(3.0),
+                        n,
+                        dir: Vec3::new(unit(k, 4) - 0.5, 1.0, unit(k, 5) - 0.5).normalize(),
+                        value: if k % 11 == 0 { 0.0 } else { unit(k, 6) * 4.0 },
+                        radiance: if k % 7 == 0 { f32::NAN } else { unit(k, 7) },
+                        fraction: (k % 2 == 0).then_some(FractionSample {
+                            weight: unit(k, 8),
+                            bsdf_pdf: 0.1 + unit(k, 9),
+                            guide_pdf: 0.2 + unit(k, 10),
+                        }),
+                    }
+                })
+                .collect()
+        };
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a pool");
+            let mut serial = GuideBuilder::new(Vec3::ZERO, Vec3::ONE);
+            let mut by_leaf = serial.clone();
+            for it in 0..3 {
+                let records = records(it as u64);
+                serial.deposit(&records);
+                let leaves: Vec<u32> = records.iter().map(|r| by_leaf.leaf_of(r) as u32).collect();
+                // batches of 1, 2, 3, ... records
+                let mut batches = Vec::new();
+                let (mut at, mut size) = (0, 1);
+                while at < records.len() {
+                    let end = (at + size).min(records.len());
+                    batches.push((&records[at..end], &leaves[at..end]));
+                    (at, size) = (end, size + 1);
+                }
+                pool.install(|| by_leaf.deposit_by_leaf(batches.iter().copied()));
+                let (a, b) = (serial.finish_iteration(it), by_leaf.finish_iteration(it));
+                assert_eq!(a, b, "{threads} threads, iteration {it}");
+                assert!(it == 0 || a.leaf_count() > NORMAL_CLASSES, "leaves split");
+            }
+        }
+    }
 
     #[test]
     fn a_crowded_leaf_splits_and_points_find_their_halves() {

@@ -598,6 +598,7 @@ fn train_until(
         let keep = settings.reuses(k);
         let shared: &PathTracer<'_> = tracer;
         for chunk in blocks.chunks(CHUNK_BLOCKS) {
+            let learning = &builder;
             let records: Vec<BlockRecords> = pool.install(|| {
                 chunk
                     .par_iter()
@@ -623,15 +624,26 @@ fn train_until(
                                     .extend(vertices.iter().filter_map(|v| v.record(lane.l)));
                             }
                         }
+                        // the records' leaves here, in parallel: the
+                        // deposit below then fills the leaves in parallel
+                        out.leaves = out
+                            .records
+                            .iter()
+                            .map(|r| learning.leaf_of(r) as u32)
+                            .collect();
                         out
                     })
                     .collect()
+            });
+            // every leaf takes its records in the blocks' order, whatever
+            // the thread count (the serial deposit's sums, bit for bit)
+            pool.install(|| {
+                builder.deposit_by_leaf(records.iter().map(|b| (&b.records[..], &b.leaves[..])))
             });
             for block in &records {
                 for &([x, y], l) in &block.kept {
                     kept.add_sample(x, y, l);
                 }
-                builder.deposit(&block.records);
                 rays.add(&block.rays);
                 for &(p, y) in &block.pixels {
                     let e = &mut pixel_sums[p];
@@ -739,6 +751,8 @@ const ESTIMATE_RADIUS: usize = 2;
 struct BlockRecords {
     /// The records, in the order of the samples and their bounces.
     records: Vec<Record>,
+    /// The guide's leaf of each record ([`GuideBuilder::leaf_of`]).
+    leaves: Vec<u32>,
     /// (pixel index, luminance) of each finite sample.
     pixels: Vec<(usize, f32)>,
     /// (pixel, value) of each sample the render keeps: finite and not
