@@ -490,6 +490,7 @@ fn prepass(
                 // total, after the first bounce
                 let mut light = [0.0f64; 2];
                 let mut rays = RayCounts::default();
+                let mut recorded = Recorded::default();
                 for s in 0..PREPASS_SPP {
                     let mut lanes = block_lanes(
                         shared,
@@ -500,8 +501,8 @@ fn prepass(
                         seed,
                         view.stretch,
                     );
-                    let vertices = trace_recorded(shared, &mut lanes, &mut rays);
-                    for (j, (lane, vertices)) in lanes.iter().zip(&vertices).enumerate() {
+                    recorded.trace(shared, &mut lanes, &mut rays);
+                    for (j, lane) in lanes.iter().enumerate() {
                         // a non-finite sample counts as black, as the film
                         // leaves it out
                         let l = if lane.l.is_finite() {
@@ -513,7 +514,7 @@ fn prepass(
                         pixel[j][0] += y;
                         pixel[j][1] += y * y;
                         light[0] += y;
-                        if let Some(v) = vertices.first().filter(|_| lane.l.is_finite()) {
+                        if let Some(v) = recorded.lane(j).next().filter(|_| lane.l.is_finite()) {
                             light[1] += luminance((lane.l - v.l).max(Vec3::ZERO)) as f64;
                         }
                     }
@@ -604,11 +605,12 @@ fn train_until(
                     .par_iter()
                     .map(|&origin| {
                         let mut out = BlockRecords::default();
+                        let mut recorded = Recorded::default();
                         for s in 0..spp {
                             let mut lanes =
                                 block_lanes(shared, camera, resolution, origin, s, seed, Vec2::ONE);
-                            let vertices = trace_recorded(shared, &mut lanes, &mut out.rays);
-                            for (j, (lane, vertices)) in lanes.iter().zip(&vertices).enumerate() {
+                            recorded.trace(shared, &mut lanes, &mut out.rays);
+                            for (j, lane) in lanes.iter().enumerate() {
                                 if !lane.l.is_finite() {
                                     continue;
                                 }
@@ -621,7 +623,7 @@ fn train_until(
                                     out.kept.push((xy, lane.l));
                                 }
                                 out.records
-                                    .extend(vertices.iter().filter_map(|v| v.record(lane.l)));
+                                    .extend(recorded.lane(j).filter_map(|v| v.record(lane.l)));
                             }
                         }
                         // the records' leaves here, in parallel: the
@@ -770,21 +772,30 @@ fn block_pixel(resolution: [u32; 2], origin: [u32; 2], j: usize) -> usize {
     ((origin[1] + dy) * w + origin[0] + dx) as usize
 }
 
-/// Trace one batch (at most [`BATCH`] lanes) with the tracer recording,
-/// and return each lane's bounces in order.
-fn trace_recorded(
-    tracer: &PathTracer<'_>,
-    lanes: &mut [Lane],
-    rays: &mut RayCounts,
-) -> Vec<Vec<GuideVertex>> {
-    assert!(lanes.len() <= BATCH, "one batch at a time");
-    take_recorded();
-    tracer.trace(lanes, rays);
-    let mut per_lane = vec![Vec::new(); lanes.len()];
-    for (i, v) in take_recorded() {
-        per_lane[i as usize].push(v);
+/// One batch's bounces, as the tracer recorded them: (lane, bounce) in the
+/// order they happened. Reused from batch to batch, so that recording
+/// allocates only until the buffers are large enough.
+#[derive(Default)]
+struct Recorded(Vec<(u32, GuideVertex)>);
+
+impl Recorded {
+    /// Trace one batch (at most [`BATCH`] lanes) with the tracer
+    /// recording, keeping its bounces.
+    fn trace(&mut self, tracer: &PathTracer<'_>, lanes: &mut [Lane], rays: &mut RayCounts) {
+        assert!(lanes.len() <= BATCH, "one batch at a time");
+        // whatever an earlier caller left on this thread
+        take_recorded(&mut self.0);
+        tracer.trace(lanes, rays);
+        take_recorded(&mut self.0);
     }
-    per_lane
+
+    /// Lane `j`'s bounces, in order.
+    fn lane(&self, j: usize) -> impl Iterator<Item = &GuideVertex> {
+        self.0
+            .iter()
+            .filter(move |(i, _)| *i as usize == j)
+            .map(|(_, v)| v)
+    }
 }
 
 /// The top-left corners of the image's [`BLOCK`] x [`BLOCK`] pixel blocks,

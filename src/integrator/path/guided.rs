@@ -27,10 +27,14 @@ pub(super) fn record(index: usize, v: GuideVertex) {
 }
 
 /// The bounces recorded on this thread since the last call (see
-/// [`PathTracer::set_recording`]): a caller that traces one batch and then
-/// takes them gets that batch's, in order, whatever thread it runs on.
-pub fn take_recorded() -> Vec<(u32, GuideVertex)> {
-    RECORDED.with(|r| std::mem::take(&mut *r.borrow_mut()))
+/// [`PathTracer::set_recording`]), into `into` (emptied first): a caller
+/// that traces one batch and then takes them gets that batch's, in order,
+/// whatever thread it runs on. The two vectors trade places, so a caller
+/// that keeps passing the same one records without allocating once both
+/// are large enough.
+pub fn take_recorded(into: &mut Vec<(u32, GuideVertex)>) {
+    into.clear();
+    RECORDED.with(|r| std::mem::swap(&mut *r.borrow_mut(), into));
 }
 
 /// A bounce of a path, as guiding's training records it: the radiance
