@@ -387,6 +387,9 @@ impl GuideBuilder {
                 records.iter().zip(leaves)
             })
         };
+        // on one thread nothing fills in parallel to pay for sorting (a
+        // first version that grouped the records on one thread as well
+        // measured 1.018x the guided door's time)
         if rayon::current_num_threads() == 1 {
             for (r, &leaf) in pairs() {
                 self.leaves[leaf as usize].add(r);
