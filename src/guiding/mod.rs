@@ -114,8 +114,8 @@ pub const BSDF_FRACTION: f32 = 0.5;
 /// (0.69x the variance, the same time) and 0.00788 against 0.00943 at 256
 /// (0.70x, 1.10x the time); `glossy-env` 0.01272 against 0.01272 at 64
 /// spp. Smaller leaves separate the light through a gap from the shadow
-/// beside it; below 1500 the door gained no more (with a step per 2
-/// records, 750 gave 0.02035 against 1500's 0.02005).
+/// beside it. Around 1500 (64 spp): 2500 gave 0.02051 on the door, 1000
+/// gave 0.01995 (and 0.01312 on `glossy-env`).
 pub const SPLIT_RECORDS: f64 = 1_500.0;
 
 /// What one spatial leaf holds while training.
