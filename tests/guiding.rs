@@ -497,15 +497,15 @@ fn auto_runs_no_pre_pass_for_a_render_too_short_to_guide() {
     assert_eq!(r["on"], false);
     assert!(r.get("indirect_share").is_none(), "{r}");
     assert_eq!(r["prepass_seconds"], 0.0, "{r}");
-    let text = ok(d, &["plan", CORNELL, "-s", "63"]);
+    let text = ok(d, &["plan", CORNELL, "-s", "31"]);
     let text = String::from_utf8_lossy(&text.stdout);
     assert!(
         text.contains(
-            "too few samples to learn a guide from (auto guides from 64 spp; no pre-pass ran)"
+            "too few samples to learn a guide from (auto guides from 32 spp; no pre-pass ran)"
         ),
         "{text}"
     );
-    let at = ok(d, &["plan", CORNELL, "-s", "64"]);
+    let at = ok(d, &["plan", CORNELL, "-s", "32"]);
     assert!(!String::from_utf8_lossy(&at.stdout).contains("too few samples"));
 }
 
@@ -535,8 +535,8 @@ fn auto_decides_the_door_scene_by_its_guided_pre_pass() {
     // the same decision twice: it is a function of the scene and the seed
     assert_eq!(plan("128"), g);
     // below `min_spp` the guide would learn too little: no pre-pass
-    let few = plan("32");
-    assert_eq!(few["min_spp"], 64);
+    let few = plan("16");
+    assert_eq!(few["min_spp"], 32);
     assert_eq!(few["on"], false, "{few}");
     assert!(few["variance_ratio"].is_null(), "{few}");
     assert!(few["indirect_share"].is_null(), "{few}");

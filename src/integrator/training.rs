@@ -27,15 +27,15 @@ use std::time::Instant;
 /// progressive render trains [`PROGRESSIVE_ITERATIONS`], enough): its guide
 /// would learn from too few paths. Measured on
 /// `benches/race/hard/door-ajar.xml` (128 x 128, RMSE against a 4096-spp
-/// reference, four seeds, 2 threads, 2-core AMD EPYC, 2026-11-29),
-/// efficiency `1 / (MSE x time)` guided over unguided, training included:
-/// 1.43x at 64 spp (RMSE 0.0230 in 2.32 s against 0.0465 in 0.81 s, each
-/// seed within 0.0225 to 0.0236), 1.08x at 32 (0.0373 in 1.19 s against
-/// 0.0673 in 0.40 s). When this was 128, at 64 spp the guided error swung
-/// with the seed (0.027 to 0.047); it has been steady since training keeps
-/// its last two iterations' samples, filters directionally and learns the
-/// BSDF's share.
-pub const AUTO_MIN_SPP: u32 = 64;
+/// reference, seeds 1 to 4, 2 threads, wall time, training and `auto`'s
+/// pre-pass included, the 2-core Intel Xeon VM, 2026-11-29, leaves of
+/// 1500 records), efficiency `1 / (MSE x time)` guided over unguided:
+/// 1.34x at 32 spp under `auto` (RMSE 0.0334 in 1.58 s against 0.0673 in
+/// 0.53 s; each seed within 0.0330 to 0.0339), and under `--guiding on`
+/// 1.03x at 16 spp (0.0579 in 0.77 s against 0.0972 in 0.28 s). It was 64
+/// until then, when leaves of 12000 records gave 1.08x at 32 spp; before
+/// that 128, when the guided error at 64 spp still swung with the seed.
+pub const AUTO_MIN_SPP: u32 = 32;
 
 /// `auto` guides a scene when at least this share of the pre-pass's light
 /// (luminance, summed over its pixels) arrived after the first non-delta
