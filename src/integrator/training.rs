@@ -33,7 +33,8 @@ use std::time::Instant;
 /// 1.34x at 32 spp under `auto` (RMSE 0.0334 in 1.58 s against 0.0673 in
 /// 0.53 s; each seed within 0.0330 to 0.0339), and under `--guiding on`
 /// 1.02x at 16 spp (0.0579 in 0.77 s against 0.0971 in 0.28 s). It was 64
-/// until then, when leaves of 12000 records gave 1.08x at 32 spp; before
+/// until then, when leaves of 12000 records gave 1.08x at 32 spp (the
+/// 2-core AMD EPYC VM, 0.0373 in 1.19 s against 0.0673 in 0.40 s); before
 /// that 128, when the guided error at 64 spp still swung with the seed.
 pub const AUTO_MIN_SPP: u32 = 32;
 
